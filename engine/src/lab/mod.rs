@@ -1,0 +1,10 @@
+//! The lab: `struck strike` as a library. A strike case (one string excited
+//! once) is parsed and checked ([`case`]), simulated on the same
+//! [`crate::struck_string::StruckString`] the instrument plays, and measured
+//! ([`run`]): contacts at sub-step resolution, bridge-force level and partials.
+
+pub mod case;
+pub mod run;
+
+pub use case::{CaseError, ExciterSpec, StrikeCase, parse_case};
+pub use run::{LabRun, Metrics, Trace, run};

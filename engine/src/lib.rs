@@ -1,0 +1,38 @@
+//! # Struck's engine: hammered, tangented and plucked strings from physics
+//!
+//! The data path from a strike to an output sample:
+//!
+//! 1. [`string`]: a [`string::StringSpec`] (length, tuning, mass, stiffness,
+//!    damping) is turned once, when a note is set up, into a
+//!    [`string::StringModes`]: tension, inharmonicity and the modes
+//!    f_n = n f0 sqrt(1 + B n^2) up to a cut-off, each with its Q ([`damping`]).
+//! 2. [`modal_bank`]: the modes' state, one complex number per mode scaled so
+//!    that the bridge force is the sum of the real parts, advanced exactly by
+//!    one complex multiply per mode and sample ([`modal_bank::StepTable`]).
+//! 3. The exciters: a [`hammer`] or mallet (mass on felt, F = K C^alpha), a clavichord
+//!    [`tangent`] (an imposed end motion), a [`pluck`] (a released triangle). An
+//!    exciter drives the modes through a [`modal_bank::DriveTable`] and observes
+//!    the string where it acts.
+//! 4. [`struck_string`]: a string and its exciter stepped together. While a
+//!    hammer is in or near contact the string is sub-stepped and the force is
+//!    solved implicitly every sub-step ([`contact`]); the modes above the cut-off
+//!    still yield statically ([`residual`]).
+//! 5. The output of a string is its bridge force, T y'(0) - EI y'''(0).
+//!
+//! [`lab`] runs one strike case end to end (the `struck strike` command) and
+//! [`analysis`] measures the results. [`perf`] measures the modal bank's speed.
+//!
+//! Units are SI throughout and carried in names (`_hz`, `_m`, `_n`, `_s`).
+
+pub mod analysis;
+pub mod contact;
+pub mod damping;
+pub mod hammer;
+pub mod lab;
+pub mod modal_bank;
+pub mod perf;
+pub mod pluck;
+pub mod residual;
+pub mod string;
+pub mod struck_string;
+pub mod tangent;

@@ -1,0 +1,134 @@
+//! Measuring the modal bank's speed: mode-samples per second for free banks of
+//! any size and for a string while a hammer is on it. `struck bench` prints
+//! these; the criterion benchmark times the same workloads.
+
+use std::f64::consts::PI;
+use std::time::{Duration, Instant};
+
+use crate::contact::ContactLaw;
+use crate::damping::Damping;
+use crate::hammer::HammerSpec;
+use crate::modal_bank::{ModalBank, StepTable};
+use crate::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
+use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+
+/// The processor's model name (from /proc/cpuinfo where there is one).
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string())
+}
+
+/// Which compiled version of the inner loops this processor runs.
+pub fn kernel_variant() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") && is_x86_feature_detected!("fma") {
+            return "x86_64 AVX-512 + FMA";
+        }
+        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            return "x86_64 AVX2 + FMA";
+        }
+        "x86_64 baseline (SSE2, software FMA)"
+    }
+    #[cfg(target_arch = "aarch64")]
+    {
+        "aarch64 NEON"
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    {
+        "portable"
+    }
+}
+
+/// A synthetic bank of `count` modes spread logarithmically from 20 Hz to 20 kHz
+/// with Q = 1000, as a whole keyboard's modes would be, each ringing.
+pub fn synthetic_bank(count: usize, sample_rate_hz: f64) -> (ModalBank, StepTable) {
+    let modes: Vec<Mode> = (0..count)
+        .map(|i| {
+            let f = 20.0 * 1000f64.powf(i as f64 / count.max(2) as f64);
+            Mode { number: i + 1, wavenumber_rad_m: (i + 1) as f64 * PI, omega_rad_s: 2.0 * PI * f, q: 1000.0 }
+        })
+        .collect();
+    let string = StringModes {
+        length_m: 1.0,
+        tension_n: 700.0,
+        mass_per_length_kg_m: 0.005,
+        bending_stiffness_n_m2: 0.0,
+        inharmonicity: 0.0,
+        f0_hz: 20.0,
+        modes,
+    };
+    let mut bank = ModalBank::new(&string);
+    for i in 0..count {
+        bank.add_velocity(i, 1e-3);
+    }
+    let step = StepTable::new(&string, 1.0 / sample_rate_hz);
+    (bank, step)
+}
+
+/// Free-mode throughput, mode-samples per second, over at least `min_time`.
+pub fn free_throughput(count: usize, block: usize, min_time: Duration) -> f64 {
+    let (mut bank, step) = synthetic_bank(count, 48_000.0);
+    let mut out = vec![0.0; block];
+    let mut samples = 0usize;
+    let start = Instant::now();
+    while start.elapsed() < min_time {
+        for _ in 0..16 {
+            out.fill(0.0);
+            bank.process_free(&step, &mut out);
+        }
+        samples += 16 * block;
+        std::hint::black_box(&out);
+    }
+    (count * samples) as f64 / start.elapsed().as_secs_f64()
+}
+
+/// A Broadwood-like C2 string (the 11 g hammer, C2 felt K = 4e8, alpha = 2.3) at 48 kHz.
+pub fn contact_string() -> (StruckString, HammerSpec) {
+    let string = StringSpec {
+        length_m: 0.925,
+        tuning: Tuning::FirstPartialHz(65.41),
+        mass: Mass::PerLengthKgM(0.0789),
+        stiffness: Stiffness::Inharmonicity(2.2e-4),
+        damping: Damping::UniformQ(2000.0),
+        max_frequency_hz: 20_000.0,
+        outer_diameter_m: None,
+    }
+    .build()
+    .expect("a valid string");
+    let hammer = HammerSpec {
+        mass_kg: 0.011,
+        law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 },
+        speed_m_s: 2.5,
+        position: 0.135,
+    };
+    (StruckString::new(string, 48_000.0, DEFAULT_SUBSTEPS), hammer)
+}
+
+/// Throughput while a hammer is on the string: mode-steps (sub-steps included)
+/// per second, each with its implicit contact solve. Returns (rate, modes).
+pub fn contact_throughput(min_time: Duration) -> (f64, usize) {
+    let (mut s, hammer) = contact_string();
+    let modes = s.string().mode_count();
+    let mut steps = 0usize;
+    let mut timed = Duration::ZERO;
+    while timed < min_time {
+        s.strike(hammer);
+        let start = Instant::now();
+        let mut samples = 0;
+        while s.in_contact() {
+            std::hint::black_box(s.tick());
+            samples += 1;
+        }
+        timed += start.elapsed();
+        steps += samples * DEFAULT_SUBSTEPS;
+    }
+    ((steps * modes) as f64 / timed.as_secs_f64(), modes)
+}

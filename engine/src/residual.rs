@@ -1,0 +1,157 @@
+//! The modes above the cut-off: their quasi-static response to a force.
+//!
+//! A mode far above the frequencies a contact force contains follows that force
+//! statically, q_n = phi_n(x_e) F / (m_n omega_n^2). Summed over the omitted modes
+//! this is a compliance at the contact point and a share of the bridge force:
+//!
+//!   R = sum_{n > N} phi_n(x_e)^2 / (m_n omega_n^2),
+//!   S = sum_{n > N} (T k_n + EI k_n^3) phi_n(x_e) / (m_n omega_n^2) = sum_{n > N} 2 sin(n pi beta) / (n pi).
+//!
+//! Both are found as the closed-form total for all modes minus the kept ones. The
+//! total compliance is the static Green's function of the tensioned beam
+//! EI y'''' - T y'' = delta(x - a), pinned at both ends: splitting
+//! 1 / (T k^2 + EI k^4) = (1/T) (1/k^2 - 1/(k^2 + kappa^2)), kappa^2 = T / EI, gives
+//!
+//!   G(a, a) = (1/T) [ a (L - a) / L - sinh(kappa a) sinh(kappa (L - a)) / (kappa sinh(kappa L)) ].
+//!
+//! The total bridge share is the lever rule, 1 - beta (the Fourier series
+//! sum sin(n theta) / n = (pi - theta) / 2).
+//!
+//! The tangent drives the string with the distributed load -mu z'' x / L; its
+//! omitted modes add sum 2 mu L / (n pi)^2 z'' to the force at the tangent and
+//! -sum 2 mu L (-1)^(n+1) / (n pi)^2 z'' at the bridge (totals pi^2/6 and pi^2/12).
+
+use std::f64::consts::PI;
+
+use crate::string::StringModes;
+
+/// Static compliance of the whole stiff string at `position` (fraction of L from the bridge), m/N.
+pub fn total_compliance_m_n(string: &StringModes, position: f64) -> f64 {
+    let (l, t, ei) = (string.length_m, string.tension_n, string.bending_stiffness_n_m2);
+    let a = position * l;
+    let flexible = a * (l - a) / l;
+    if ei == 0.0 {
+        return flexible / t;
+    }
+    let kappa = (t / ei).sqrt();
+    // sinh(x) sinh(y) / sinh(x + y) = (1 - e^-2x)(1 - e^-2y) / (2 (1 - e^-2(x+y))), free of overflow.
+    let (x, y) = (kappa * a, kappa * (l - a));
+    let ratio = -(-2.0 * x).exp_m1() * -(-2.0 * y).exp_m1() / (2.0 * -(-2.0 * (x + y)).exp_m1());
+    (flexible - ratio / kappa) / t
+}
+
+/// Compliance of the modes the string leaves out, at `position`, m/N.
+pub fn omitted_compliance_m_n(string: &StringModes, position: f64) -> f64 {
+    let m = string.modal_mass_kg();
+    let kept: f64 = string
+        .modes
+        .iter()
+        .map(|mode| string.shape_at(mode, position).powi(2) / (m * mode.omega_rad_s * mode.omega_rad_s))
+        .sum();
+    (total_compliance_m_n(string, position) - kept).max(0.0)
+}
+
+/// Static share of the bridge force per newton of contact force at `position`
+/// carried by the omitted modes.
+pub fn omitted_bridge_share(string: &StringModes, position: f64) -> f64 {
+    let kept: f64 = string
+        .modes
+        .iter()
+        .map(|mode| 2.0 * string.shape_at(mode, position) / (mode.number as f64 * PI))
+        .sum();
+    (1.0 - position) - kept
+}
+
+/// For a tangent at x = L driven with acceleration z'': the omitted modes' static
+/// share of (force at the tangent, force at the bridge) per unit z'', in kg.
+pub fn omitted_tangent_shares_kg(string: &StringModes) -> (f64, f64) {
+    let scale = 2.0 * string.mass_per_length_kg_m * string.length_m / (PI * PI);
+    let mut at_tangent = PI * PI / 6.0;
+    let mut at_bridge = PI * PI / 12.0;
+    for mode in &string.modes {
+        let n = mode.number as f64;
+        at_tangent -= 1.0 / (n * n);
+        at_bridge -= if mode.number % 2 == 1 { 1.0 } else { -1.0 } / (n * n);
+    }
+    (scale * at_tangent, -scale * at_bridge)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::damping::Damping;
+    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
+
+    fn string(b: f64, max_hz: f64) -> StringModes {
+        StringSpec {
+            length_m: 0.4,
+            tuning: Tuning::TensionN(191.0),
+            mass: Mass::PerLengthKgM(1.54e-3),
+            stiffness: if b > 0.0 { Stiffness::Inharmonicity(b) } else { Stiffness::Flexible },
+            damping: Damping::UniformQ(1000.0),
+            max_frequency_hz: max_hz,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap()
+    }
+
+    /// Direct modal sum of phi^2 / (m omega^2) over n = 1..count.
+    fn direct_sum(s: &StringModes, position: f64, count: usize) -> f64 {
+        let m = s.modal_mass_kg();
+        (1..=count)
+            .map(|n| {
+                let k = n as f64 * PI / s.length_m;
+                let stiffness = s.tension_n * k * k + s.bending_stiffness_n_m2 * k.powi(4);
+                (n as f64 * PI * position).sin().powi(2) / (m * stiffness / s.mass_per_length_kg_m)
+            })
+            .sum()
+    }
+
+    #[test]
+    fn closed_form_compliance_matches_the_modal_sum() {
+        // A stiff string's terms fall as n^-4: two million terms converge to 1e-15.
+        for &b in &[2e-4, 2e-2] {
+            let s = string(b, 20_000.0);
+            for &beta in &[0.1, 0.4, 0.73] {
+                let closed = total_compliance_m_n(&s, beta);
+                let direct = direct_sum(&s, beta, 2_000_000);
+                assert!((closed / direct - 1.0).abs() < 1e-9, "B={b} beta={beta}: {closed} vs {direct}");
+            }
+        }
+        // The flexible string's is a (L - a) / (T L).
+        let s = string(0.0, 20_000.0);
+        assert!((total_compliance_m_n(&s, 0.4) - 0.16 * 0.24 / (191.0 * 0.4)).abs() < 1e-18);
+    }
+
+    #[test]
+    fn omitted_compliance_is_the_tail_of_the_sum() {
+        let s = string(2e-4, 20_000.0);
+        let tail = direct_sum(&s, 0.4, 2_000_000) - direct_sum(&s, 0.4, s.mode_count());
+        assert!((omitted_compliance_m_n(&s, 0.4) / tail - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bridge_share_is_the_lever_rule_minus_the_kept_modes() {
+        let s = string(2e-4, 20_000.0);
+        let tail: f64 = (s.mode_count() + 1..=4_000_000)
+            .map(|n| 2.0 * (n as f64 * PI * 0.4).sin() / (n as f64 * PI))
+            .sum();
+        assert!((omitted_bridge_share(&s, 0.4) - tail).abs() < 1e-6);
+    }
+
+    #[test]
+    fn tangent_shares_are_the_tails_of_their_series() {
+        let s = string(2e-4, 5_000.0);
+        let scale = 2.0 * s.mass_per_length_kg_m * s.length_m / (PI * PI);
+        let (mut t, mut b) = (0.0, 0.0);
+        for n in (s.mode_count() + 1..=1_000_000).rev() {
+            let n2 = (n * n) as f64;
+            t += 1.0 / n2;
+            b -= if n % 2 == 1 { 1.0 } else { -1.0 } / n2;
+        }
+        let (at_tangent, at_bridge) = omitted_tangent_shares_kg(&s);
+        assert!((at_tangent / (scale * t) - 1.0).abs() < 1e-4);
+        assert!((at_bridge - scale * b).abs() < 1e-9 * scale);
+    }
+}

@@ -1,0 +1,369 @@
+//! One string and whatever is exciting it: the unit the lab runs and a key will own.
+//!
+//! Per audio sample the string advances by one exact modal step. While a hammer
+//! is in or near contact, the string and hammer advance instead in `substeps`
+//! equal sub-steps, each with the contact force solved implicitly
+//! ([`crate::contact`]); the coefficient sets for both step sizes are built when
+//! the exciter is set up. A full step that turns out to end in contact is taken
+//! back ([`ModalBank::undo_free_step`]) and redone in sub-steps; sub-stepping
+//! ends once no force has acted for [`StruckString::hold_samples`] samples.
+//!
+//! Each (sub)step is one pass over the modes. The force of a step is found after
+//! that pass, so the bank keeps each step's state without the response to its
+//! own force (b1 F) and carries it into the next pass (`p b1 + b0`, see
+//! [`DriveTable`]). A hammer's force is held at its end-of-step value over the
+//! step ([`Hold::End`], see [`crate::hammer`] for why); a tangent's prescribed
+//! acceleration is interpolated linearly ([`Hold::Linear`]). The string's displacement at the contact is then
+//! y = y_hat + (G + R) F and the bridge force B_hat + (G_b + S) F, where G, G_b
+//! are the within-step responses and R, S the static residual of the modes
+//! above the cut-off ([`crate::residual`]).
+//!
+//! Striking again continues from the string's present state.
+
+use crate::hammer::{Hammer, HammerSpec};
+use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
+use crate::pluck::PluckSpec;
+use crate::residual;
+use crate::string::StringModes;
+use crate::tangent::TangentSpec;
+
+/// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
+pub const DEFAULT_SUBSTEPS: usize = 8;
+
+/// What one sample produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tick {
+    /// Force the exciter applies to the string, +y, N.
+    pub contact_force_n: f64,
+    /// Force the string applies to the bridge, +y, N.
+    pub bridge_force_n: f64,
+    /// Hammer or tangent position, m (none for a pluck).
+    pub exciter_position_m: Option<f64>,
+    /// String displacement at the exciter (its end, for a tangent), m.
+    pub string_position_m: f64,
+}
+
+/// Receives every (sub)step of a hammer's motion: the lab measures contacts with it.
+pub trait ContactObserver {
+    /// At time `t_s` since the strike the felt's compression was `compression_m`
+    /// (negative: a gap) and the force `force_n`.
+    fn step(&mut self, t_s: f64, compression_m: f64, force_n: f64);
+}
+
+/// Observes nothing.
+impl ContactObserver for () {
+    #[inline(always)]
+    fn step(&mut self, _: f64, _: f64, _: f64) {}
+}
+
+struct HammerDrive {
+    hammer: Hammer,
+    audio: DriveTable,
+    sub: DriveTable,
+    /// Static compliance of the omitted modes at the strike point, m/N.
+    residual_compliance_m_n: f64,
+    /// Static bridge share of the omitted modes per newton of contact force.
+    residual_bridge_share: f64,
+    /// Force at the end of the last sub-step (carried into the next pass), N.
+    force_n: f64,
+    substepping: bool,
+    quiet_samples: usize,
+    time_s: f64,
+}
+
+struct TangentDrive {
+    spec: TangentSpec,
+    drive: DriveTable,
+    /// Omitted modes' static share of the force at the tangent and at the bridge, per unit z''.
+    residual_tangent_kg: f64,
+    residual_bridge_kg: f64,
+    acceleration_m_s2: f64,
+    time_s: f64,
+}
+
+struct PluckDrive {
+    drive: DriveTable,
+}
+
+enum Exciter {
+    None,
+    Hammer(Box<HammerDrive>),
+    Tangent(Box<TangentDrive>),
+    Pluck(Box<PluckDrive>),
+}
+
+/// A string with its modes, its exciter, and the coefficients for both step sizes.
+pub struct StruckString {
+    string: StringModes,
+    bank: ModalBank,
+    audio: StepTable,
+    sub: StepTable,
+    substeps: usize,
+    hold_samples: usize,
+    exciter: Exciter,
+}
+
+impl StruckString {
+    /// A string at rest, stepped at `sample_rate_hz` with `substeps` sub-steps per
+    /// sample during contact. Allocates.
+    pub fn new(string: StringModes, sample_rate_hz: f64, substeps: usize) -> Self {
+        let substeps = substeps.max(1);
+        let h = 1.0 / sample_rate_hz;
+        let bank = ModalBank::new(&string);
+        let audio = StepTable::new(&string, h);
+        let sub = StepTable::new(&string, h / substeps as f64);
+        // Stay sub-stepped through force-free gaps up to 100 us: a stiff contact
+        // chatters with micro-separations of tens of microseconds.
+        let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
+        Self { string, bank, audio, sub, substeps, hold_samples, exciter: Exciter::None }
+    }
+
+    pub fn string(&self) -> &StringModes {
+        &self.string
+    }
+
+    pub fn bank(&self) -> &ModalBank {
+        &self.bank
+    }
+
+    /// Samples without force after which sub-stepping stops.
+    pub fn hold_samples(&self) -> usize {
+        self.hold_samples
+    }
+
+    /// Give the bank back its "force applied" form before the exciter changes.
+    fn settle_exciter(&mut self) {
+        match &self.exciter {
+            Exciter::Hammer(d) if d.substepping => self.bank.apply_ramp(&d.sub, d.force_n),
+            Exciter::Tangent(d) => self.bank.apply_ramp(&d.drive, d.acceleration_m_s2),
+            _ => {}
+        }
+        self.exciter = Exciter::None;
+    }
+
+    fn drive_at(&self, step: &StepTable, hold: Hold, gain: impl Fn(usize) -> f64, observe: impl Fn(usize) -> f64) -> DriveTable {
+        let gains: Vec<f64> = (0..self.bank.len()).map(&gain).collect();
+        let observes: Vec<f64> = (0..self.bank.len()).map(&observe).collect();
+        DriveTable::new(step, hold, self.bank.weights(), &gains, &observes)
+    }
+
+    /// Throw a hammer at the string as it is now. Allocates (builds the drive tables).
+    pub fn strike(&mut self, spec: HammerSpec) {
+        self.settle_exciter();
+        let s = &self.string;
+        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, spec.position)).collect();
+        let m = s.modal_mass_kg();
+        let audio = self.drive_at(&self.audio, Hold::End, |i| shape[i] / m, |i| shape[i]);
+        let sub = self.drive_at(&self.sub, Hold::End, |i| shape[i] / m, |i| shape[i]);
+        let touching_at_m = self.bank.observe(&audio);
+        self.exciter = Exciter::Hammer(Box::new(HammerDrive {
+            hammer: Hammer::thrown(spec, touching_at_m),
+            audio,
+            sub,
+            residual_compliance_m_n: residual::omitted_compliance_m_n(s, spec.position),
+            residual_bridge_share: residual::omitted_bridge_share(s, spec.position),
+            force_n: 0.0,
+            substepping: true,
+            quiet_samples: 0,
+            time_s: 0.0,
+        }));
+    }
+
+    /// Press a tangent into the string's far end (x = L), the string at rest there.
+    pub fn press_tangent(&mut self, spec: TangentSpec) {
+        self.settle_exciter();
+        let s = &self.string;
+        let gains: Vec<f64> = s.modes.iter().map(|m| TangentSpec::modal_gain(m.number)).collect();
+        let weights = self.bank.weights().to_vec();
+        let sign = |i: usize| if s.modes[i].number % 2 == 0 { 1.0 } else { -1.0 };
+        let drive = self.drive_at(&self.audio, Hold::Linear, |i| gains[i], |i| sign(i) * weights[i]);
+        for (i, g) in gains.iter().enumerate() {
+            self.bank.add_velocity(i, g * spec.speed_m_s);
+        }
+        let acceleration_m_s2 = spec.acceleration_m_s2(0.0);
+        self.bank.apply_ramp(&drive, -acceleration_m_s2);
+        let (residual_tangent_kg, residual_bridge_kg) = residual::omitted_tangent_shares_kg(s);
+        self.exciter = Exciter::Tangent(Box::new(TangentDrive {
+            spec,
+            drive,
+            residual_tangent_kg,
+            residual_bridge_kg,
+            acceleration_m_s2,
+            time_s: 0.0,
+        }));
+    }
+
+    /// Pull the string aside into a triangle and let go (adds to its present state).
+    pub fn pluck(&mut self, spec: PluckSpec) {
+        self.settle_exciter();
+        let s = &self.string;
+        for (i, mode) in s.modes.iter().enumerate() {
+            self.bank.add_displacement(i, spec.modal_displacement_m(mode.number));
+        }
+        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, spec.position)).collect();
+        let drive = self.drive_at(&self.audio, Hold::Linear, |_| 0.0, |i| shape[i]);
+        self.exciter = Exciter::Pluck(Box::new(PluckDrive { drive }));
+    }
+
+    /// The present state, without stepping.
+    pub fn current(&self) -> Tick {
+        let bridge = self.bank.bridge_force_n();
+        match &self.exciter {
+            Exciter::None => Tick { bridge_force_n: bridge, ..Tick::default() },
+            Exciter::Hammer(d) => {
+                let (drive, force) = if d.substepping { (&d.sub, d.force_n) } else { (&d.audio, 0.0) };
+                Tick {
+                    contact_force_n: force,
+                    bridge_force_n: bridge + (drive.bridge_per_input + d.residual_bridge_share) * force,
+                    exciter_position_m: Some(d.hammer.position_m),
+                    string_position_m: self.bank.observe(drive)
+                        + (drive.observe_per_input + d.residual_compliance_m_n) * force,
+                }
+            }
+            Exciter::Tangent(d) => {
+                let a = d.acceleration_m_s2;
+                let z = d.spec.position_m(d.time_s);
+                let line = self.string.tension_n * z / self.string.length_m;
+                Tick {
+                    contact_force_n: self.bank.observe(&d.drive)
+                        + (d.drive.observe_per_input + d.residual_tangent_kg) * a
+                        + line,
+                    bridge_force_n: bridge + (d.drive.bridge_per_input + d.residual_bridge_kg) * a + line,
+                    exciter_position_m: Some(z),
+                    string_position_m: z,
+                }
+            }
+            Exciter::Pluck(d) => Tick {
+                contact_force_n: 0.0,
+                bridge_force_n: bridge,
+                exciter_position_m: None,
+                string_position_m: self.bank.observe(&d.drive),
+            },
+        }
+    }
+
+    /// Advance one sample and report it.
+    pub fn tick(&mut self) -> Tick {
+        self.tick_observed(&mut ())
+    }
+
+    /// Advance one sample, telling `observer` about every (sub)step of a hammer.
+    pub fn tick_observed(&mut self, observer: &mut impl ContactObserver) -> Tick {
+        match &mut self.exciter {
+            Exciter::None => {
+                let mut out = [0.0];
+                self.bank.process_free(&self.audio, &mut out);
+                Tick { bridge_force_n: out[0], ..Tick::default() }
+            }
+            Exciter::Hammer(d) => Self::tick_hammer(
+                &mut self.bank,
+                &self.audio,
+                &self.sub,
+                self.substeps,
+                self.hold_samples,
+                d,
+                observer,
+            ),
+            Exciter::Tangent(d) => {
+                let (string, bank, step) = (&self.string, &mut self.bank, &self.audio);
+                let (end_hat, bridge_hat) = bank.step_driven(step, &d.drive, d.acceleration_m_s2);
+                d.time_s += step.step_s;
+                let a = if d.time_s < d.spec.settled_after_s() { d.spec.acceleration_m_s2(d.time_s) } else { 0.0 };
+                d.acceleration_m_s2 = a;
+                let z = d.spec.position_m(d.time_s);
+                let line = string.tension_n * z / string.length_m;
+                Tick {
+                    contact_force_n: end_hat + (d.drive.observe_per_input + d.residual_tangent_kg) * a + line,
+                    bridge_force_n: bridge_hat + (d.drive.bridge_per_input + d.residual_bridge_kg) * a + line,
+                    exciter_position_m: Some(z),
+                    string_position_m: z,
+                }
+            }
+            Exciter::Pluck(d) => {
+                let (y, bridge) = self.bank.step_driven(&self.audio, &d.drive, 0.0);
+                Tick { contact_force_n: 0.0, bridge_force_n: bridge, exciter_position_m: None, string_position_m: y }
+            }
+        }
+    }
+
+    fn tick_hammer(
+        bank: &mut ModalBank,
+        audio: &StepTable,
+        sub: &StepTable,
+        substeps: usize,
+        hold_samples: usize,
+        d: &mut HammerDrive,
+        observer: &mut impl ContactObserver,
+    ) -> Tick {
+        if !d.substepping {
+            let h = audio.step_s;
+            let (y_hat, bridge_hat) = bank.step_driven(audio, &d.audio, 0.0);
+            let eta_hat = d.hammer.predict_m(h);
+            if eta_hat - y_hat <= 0.0 {
+                d.hammer.commit(h, eta_hat, 0.0);
+                d.time_s += h;
+                observer.step(d.time_s, eta_hat - y_hat, 0.0);
+                return Tick {
+                    contact_force_n: 0.0,
+                    bridge_force_n: bridge_hat,
+                    exciter_position_m: Some(eta_hat),
+                    string_position_m: y_hat,
+                };
+            }
+            // This sample runs into the string: redo it finely.
+            bank.undo_free_step(audio);
+            d.substepping = true;
+            d.quiet_samples = 0;
+        }
+        let h = sub.step_s;
+        let compliance = d.hammer.compliance_m_n(h) + d.sub.observe_per_input + d.residual_compliance_m_n;
+        let mut any_force = false;
+        let mut tick = Tick::default();
+        for _ in 0..substeps {
+            let (y_hat, bridge_hat) = bank.step_driven(sub, &d.sub, d.force_n);
+            let eta_hat = d.hammer.predict_m(h);
+            let (force, compression) = d.hammer.spec.law.solve(eta_hat - y_hat, compliance);
+            d.hammer.commit(h, eta_hat, force);
+            d.force_n = force;
+            d.time_s += h;
+            any_force |= force > 0.0;
+            observer.step(d.time_s, compression, force);
+            tick = Tick {
+                contact_force_n: force,
+                bridge_force_n: bridge_hat + (d.sub.bridge_per_input + d.residual_bridge_share) * force,
+                exciter_position_m: Some(d.hammer.position_m),
+                string_position_m: y_hat + (d.sub.observe_per_input + d.residual_compliance_m_n) * force,
+            };
+        }
+        if any_force {
+            d.quiet_samples = 0;
+        } else {
+            d.quiet_samples += 1;
+            // No force over the whole sample: the carried force is zero, so the
+            // bank's state is complete and full steps can resume.
+            if d.quiet_samples >= hold_samples {
+                d.substepping = false;
+            }
+        }
+        tick
+    }
+
+    /// Whether a hammer is in or near contact (the string is being sub-stepped).
+    pub fn in_contact(&self) -> bool {
+        matches!(&self.exciter, Exciter::Hammer(d) if d.substepping)
+    }
+
+    /// The hammer, if one is in play.
+    pub fn hammer(&self) -> Option<&Hammer> {
+        match &self.exciter {
+            Exciter::Hammer(d) => Some(&d.hammer),
+            _ => None,
+        }
+    }
+
+    /// Energy in the kept modes, J (exact between contacts; during contact it
+    /// leaves out the response to the step's own force).
+    pub fn string_energy_j(&self) -> f64 {
+        self.bank.energy_j()
+    }
+}

@@ -17,6 +17,17 @@
 //! The total bridge share is the lever rule, 1 - beta (the Fourier series
 //! sum sin(n theta) / n = (pi - theta) / 2).
 //!
+//! Within their own band the omitted modes do not act as a spring: a force with
+//! content there sets them ringing, and the energy they take leaves the kept modes
+//! for good (on the real string it runs away as waves). Averaged over the band,
+//! the admittance of a string at an interior point is resistive, 1 / (2 mu c_g),
+//! with c_g = d omega / d k the group velocity (the mean of phi^2 / m_n over the
+//! modal density). The residual is therefore a Kelvin-Voigt element: the static
+//! compliance R in parallel with a dashpot c = 2 mu c_g(omega_{N+1}), spring-like
+//! below the cut-off and resistive above it; its time constant c R is a few
+//! microseconds. It matters only for stiff contacts (a santoor mallet with
+//! K = 1e6 N/m sends about 1 % of its energy there); a felt hammer hardly feels it.
+//!
 //! The tangent drives the string with the distributed load -mu z'' x / L; its
 //! omitted modes add sum 2 mu L / (n pi)^2 z'' to the force at the tangent and
 //! -sum 2 mu L (-1)^(n+1) / (n pi)^2 z'' at the bridge (totals pi^2/6 and pi^2/12).
@@ -60,6 +71,16 @@ pub fn omitted_bridge_share(string: &StringModes, position: f64) -> f64 {
         .map(|mode| 2.0 * string.shape_at(mode, position) / (mode.number as f64 * PI))
         .sum();
     (1.0 - position) - kept
+}
+
+/// The dashpot of the omitted modes, 2 mu c_g at the first omitted mode, N s/m.
+pub fn omitted_damping_ns_m(string: &StringModes) -> f64 {
+    let (t, ei, mu) = (string.tension_n, string.bending_stiffness_n_m2, string.mass_per_length_kg_m);
+    let k = (string.mode_count() + 1) as f64 * PI / string.length_m;
+    let omega = ((t * k * k + ei * k.powi(4)) / mu).sqrt();
+    // omega^2 = (T k^2 + EI k^4) / mu, so d omega / d k = (T k + 2 EI k^3) / (mu omega).
+    let group_velocity = (t * k + 2.0 * ei * k.powi(3)) / (mu * omega);
+    2.0 * mu * group_velocity
 }
 
 /// For a tangent at x = L driven with acceleration z'': the omitted modes' static
@@ -138,6 +159,15 @@ mod tests {
             .map(|n| 2.0 * (n as f64 * PI * 0.4).sin() / (n as f64 * PI))
             .sum();
         assert!((omitted_bridge_share(&s, 0.4) - tail).abs() < 1e-6);
+    }
+
+    #[test]
+    fn omitted_damping_is_twice_the_impedance_for_a_flexible_string() {
+        // Without stiffness c_g = c and the dashpot is 2 Z0, the infinite string's.
+        let s = string(0.0, 20_000.0);
+        assert!((omitted_damping_ns_m(&s) / (2.0 * s.impedance_ns_m()) - 1.0).abs() < 1e-12);
+        // With stiffness the high modes travel faster: a stronger dashpot.
+        assert!(omitted_damping_ns_m(&string(2e-4, 20_000.0)) > 2.0 * s.impedance_ns_m());
     }
 
     #[test]

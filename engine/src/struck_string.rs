@@ -10,16 +10,23 @@
 //!
 //! Each (sub)step is one pass over the modes. The force of a step is found after
 //! that pass, so the bank keeps each step's state without the response to its
-//! own force (b1 F) and carries it into the next pass (`p b1 + b0`, see
-//! [`DriveTable`]). A hammer's force is held at its end-of-step value over the
-//! step ([`Hold::End`], see [`crate::hammer`] for why); a tangent's prescribed
-//! acceleration is interpolated linearly ([`Hold::Linear`]). The string's displacement at the contact is then
-//! y = y_hat + (G + R) F and the bridge force B_hat + (G_b + S) F, where G, G_b
-//! are the within-step responses and R, S the static residual of the modes
-//! above the cut-off ([`crate::residual`]).
+//! own force (b F) and carries it into the next pass (`p b`, see [`DriveTable`]).
+//! A hammer's force is held over each step at the felt's energy-consistent mean
+//! ([`crate::contact`]; [`Hold::End`]); a tangent's prescribed acceleration is
+//! interpolated linearly ([`Hold::Linear`]). The string at the contact point is
+//! the kept modes, y = y_hat + G F, plus the omitted modes' residual displacement
+//! r, a spring R in parallel with a dashpot c ([`crate::residual`]) integrated
+//! exactly over the step:
+//!
+//!   r(h) = a r(0) + (1 - a) R F,  a = exp(-h / (c R)).
+//!
+//! The bridge force is B_hat + G_b F + S r / R, S being the omitted modes' static
+//! share per newton. Every joule is accounted for: what the hammer loses is in
+//! the kept modes, the felt, the residual spring, or taken up by the omitted modes.
 //!
 //! Striking again continues from the string's present state.
 
+use crate::contact::ContactStep;
 use crate::hammer::{Hammer, HammerSpec};
 use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
 use crate::pluck::PluckSpec;
@@ -56,16 +63,54 @@ impl ContactObserver for () {
     fn step(&mut self, _: f64, _: f64, _: f64) {}
 }
 
+/// The omitted modes as seen from the strike point.
+struct Residual {
+    /// Static compliance R, m/N.
+    compliance_m_n: f64,
+    /// Static share of the bridge force per newton, S.
+    bridge_share: f64,
+    /// exp(-h / (c R)) for a sample and for a sub-step.
+    relax_audio: f64,
+    relax_sub: f64,
+}
+
+impl Residual {
+    fn new(string: &StringModes, position: f64, sample_s: f64, substeps: usize) -> Self {
+        let compliance_m_n = residual::omitted_compliance_m_n(string, position);
+        let time_constant_s = residual::omitted_damping_ns_m(string) * compliance_m_n;
+        let relax = |h: f64| if time_constant_s > 0.0 { (-h / time_constant_s).exp() } else { 0.0 };
+        Self {
+            compliance_m_n,
+            bridge_share: residual::omitted_bridge_share(string, position),
+            relax_audio: relax(sample_s),
+            relax_sub: relax(sample_s / substeps as f64),
+        }
+    }
+
+    /// Static bridge force of a residual displacement, N.
+    fn bridge_force_n(&self, displacement_m: f64) -> f64 {
+        if self.compliance_m_n > 0.0 { self.bridge_share * displacement_m / self.compliance_m_n } else { 0.0 }
+    }
+
+    /// Energy in the residual spring, J.
+    fn energy_j(&self, displacement_m: f64) -> f64 {
+        if self.compliance_m_n > 0.0 { displacement_m * displacement_m / (2.0 * self.compliance_m_n) } else { 0.0 }
+    }
+}
+
 struct HammerDrive {
     hammer: Hammer,
     audio: DriveTable,
     sub: DriveTable,
-    /// Static compliance of the omitted modes at the strike point, m/N.
-    residual_compliance_m_n: f64,
-    /// Static bridge share of the omitted modes per newton of contact force.
-    residual_bridge_share: f64,
-    /// Force at the end of the last sub-step (carried into the next pass), N.
+    residual: Residual,
+    /// Displacement of the omitted modes at the strike point, m.
+    residual_m: f64,
+    /// Felt compression at the end of the last step, m.
+    compression_m: f64,
+    /// Force held over the last step (carried into the next pass), N.
     force_n: f64,
+    /// Energy taken up by the omitted modes' dashpot so far, J.
+    absorbed_j: f64,
     substepping: bool,
     quiet_samples: usize,
     time_s: f64,
@@ -160,9 +205,11 @@ impl StruckString {
             hammer: Hammer::thrown(spec, touching_at_m),
             audio,
             sub,
-            residual_compliance_m_n: residual::omitted_compliance_m_n(s, spec.position),
-            residual_bridge_share: residual::omitted_bridge_share(s, spec.position),
+            residual: Residual::new(s, spec.position, self.audio.step_s, self.substeps),
+            residual_m: 0.0,
+            compression_m: 0.0,
             force_n: 0.0,
+            absorbed_j: 0.0,
             substepping: true,
             quiet_samples: 0,
             time_s: 0.0,
@@ -213,11 +260,10 @@ impl StruckString {
             Exciter::Hammer(d) => {
                 let (drive, force) = if d.substepping { (&d.sub, d.force_n) } else { (&d.audio, 0.0) };
                 Tick {
-                    contact_force_n: force,
-                    bridge_force_n: bridge + (drive.bridge_per_input + d.residual_bridge_share) * force,
+                    contact_force_n: d.hammer.spec.law.force_n(d.compression_m),
+                    bridge_force_n: bridge + drive.bridge_per_input * force + d.residual.bridge_force_n(d.residual_m),
                     exciter_position_m: Some(d.hammer.position_m),
-                    string_position_m: self.bank.observe(drive)
-                        + (drive.observe_per_input + d.residual_compliance_m_n) * force,
+                    string_position_m: self.bank.observe(drive) + drive.observe_per_input * force + d.residual_m,
                 }
             }
             Exciter::Tangent(d) => {
@@ -296,18 +342,24 @@ impl StruckString {
         observer: &mut impl ContactObserver,
     ) -> Tick {
         if !d.substepping {
+            // The force is zero: a free step, unless it ends in contact.
             let h = audio.step_s;
             let (y_hat, bridge_hat) = bank.step_driven(audio, &d.audio, 0.0);
             let eta_hat = d.hammer.predict_m(h);
-            if eta_hat - y_hat <= 0.0 {
+            let residual_m = d.residual.relax_audio * d.residual_m;
+            let compression_m = eta_hat - y_hat - residual_m;
+            if compression_m <= 0.0 {
                 d.hammer.commit(h, eta_hat, 0.0);
+                d.absorbed_j += d.residual.energy_j(d.residual_m) - d.residual.energy_j(residual_m);
+                d.residual_m = residual_m;
+                d.compression_m = compression_m;
                 d.time_s += h;
-                observer.step(d.time_s, eta_hat - y_hat, 0.0);
+                observer.step(d.time_s, compression_m, 0.0);
                 return Tick {
                     contact_force_n: 0.0,
-                    bridge_force_n: bridge_hat,
+                    bridge_force_n: bridge_hat + d.residual.bridge_force_n(residual_m),
                     exciter_position_m: Some(eta_hat),
-                    string_position_m: y_hat,
+                    string_position_m: y_hat + residual_m,
                 };
             }
             // This sample runs into the string: redo it finely.
@@ -316,23 +368,34 @@ impl StruckString {
             d.quiet_samples = 0;
         }
         let h = sub.step_s;
-        let compliance = d.hammer.compliance_m_n(h) + d.sub.observe_per_input + d.residual_compliance_m_n;
+        let relax = d.residual.relax_sub;
+        let compliance =
+            d.hammer.compliance_m_n(h) + d.sub.observe_per_input + (1.0 - relax) * d.residual.compliance_m_n;
         let mut any_force = false;
         let mut tick = Tick::default();
         for _ in 0..substeps {
             let (y_hat, bridge_hat) = bank.step_driven(sub, &d.sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
-            let (force, compression) = d.hammer.spec.law.solve(eta_hat - y_hat, compliance);
+            let c_hat = eta_hat - y_hat - relax * d.residual_m;
+            let ContactStep { compression_m, step_force_n: force } =
+                d.hammer.spec.law.solve(d.compression_m, c_hat, compliance);
             d.hammer.commit(h, eta_hat, force);
+            let residual_m = relax * d.residual_m + (1.0 - relax) * d.residual.compliance_m_n * force;
+            // Work done on the residual, less what its spring now holds, went into its dashpot.
+            d.absorbed_j += force * (residual_m - d.residual_m) - d.residual.energy_j(residual_m)
+                + d.residual.energy_j(d.residual_m);
+            d.residual_m = residual_m;
+            d.compression_m = compression_m;
             d.force_n = force;
             d.time_s += h;
             any_force |= force > 0.0;
-            observer.step(d.time_s, compression, force);
+            let felt_force_n = d.hammer.spec.law.force_n(compression_m);
+            observer.step(d.time_s, compression_m, felt_force_n);
             tick = Tick {
-                contact_force_n: force,
-                bridge_force_n: bridge_hat + (d.sub.bridge_per_input + d.residual_bridge_share) * force,
+                contact_force_n: felt_force_n,
+                bridge_force_n: bridge_hat + d.sub.bridge_per_input * force + d.residual.bridge_force_n(residual_m),
                 exciter_position_m: Some(d.hammer.position_m),
-                string_position_m: y_hat + (d.sub.observe_per_input + d.residual_compliance_m_n) * force,
+                string_position_m: y_hat + d.sub.observe_per_input * force + residual_m,
             };
         }
         if any_force {
@@ -365,5 +428,13 @@ impl StruckString {
     /// leaves out the response to the step's own force).
     pub fn string_energy_j(&self) -> f64 {
         self.bank.energy_j()
+    }
+
+    /// Energy the omitted modes have taken from the present hammer's contacts, J.
+    pub fn absorbed_by_omitted_modes_j(&self) -> f64 {
+        match &self.exciter {
+            Exciter::Hammer(d) => d.absorbed_j,
+            _ => 0.0,
+        }
     }
 }

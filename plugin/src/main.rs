@@ -1,1 +1,119 @@
-fn main() {}
+//! `struck`: the command-line face of Struck.
+//!
+//! `struck strike` is the engine's lab bench (one string excited once, every
+//! number written out); `struck bench` measures the modal bank's speed.
+
+mod bench_cmd;
+mod output;
+mod strike_cmd;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Exit status for input that Struck refuses (a malformed case, a bad argument).
+pub const EXIT_BAD_INPUT: u8 = 2;
+/// Exit status when the work could not be done (e.g. the output cannot be written).
+pub const EXIT_FAILURE: u8 = 1;
+
+#[derive(Parser)]
+#[command(
+    name = "struck",
+    version,
+    about = "Struck: hammered, tangented and plucked strings computed from physics",
+    long_about = "Struck computes struck strings from physics, not samples: a stiff string as a \
+                  set of exactly stepped modes, excited by a piano hammer or santoor mallet \
+                  (felt or spring, solved implicitly at every step), a clavichord tangent, or a \
+                  pluck. The output is the force the string exerts on the bridge.",
+    arg_required_else_help = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate one strike case and write its metrics and trace.
+    #[command(long_about = "Simulate one string excited once, as described by a strike case \
+                            (a JSON file: sample_rate_hz, duration_s, string {...}, exciter {...}; \
+                            see strike-case.md), and write DIR/metrics.json (contacts, contact time, \
+                            peak force, rebound, bridge-force RMS, spectral centroid, the first 20 \
+                            partials, the derived string) and DIR/trace.csv (one row per sample: \
+                            t_s, contact_force_n, bridge_force_n, exciter_position_m, \
+                            string_position_m). A case that is malformed, contradictory or out of \
+                            range is refused with exit status 2 and one line naming the field; \
+                            nothing is written then.")]
+    Strike(StrikeArgs),
+    /// Measure the modal bank's speed (mode-samples per second).
+    #[command(long_about = "Measure how fast the engine runs on this machine: free modes for \
+                            banks of 1k, 16k and 64k modes (48 kHz, blocks of 64 samples), and a \
+                            piano bass string while a hammer is on it (8 sub-steps per sample, \
+                            each with its implicit contact solve). Prints the CPU model and the \
+                            compiled kernel in use. Build with --release for meaningful figures.")]
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+pub struct StrikeArgs {
+    /// The strike case (JSON).
+    pub case: PathBuf,
+    /// Directory for metrics.json and trace.csv (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Also write the bridge force as a 32-bit float WAV at the case's sample rate.
+    #[arg(long, value_name = "FILE")]
+    pub wav: Option<PathBuf>,
+    /// Gain from newtons to WAV full scale, in dB (0 dB: 1 N = 1.0). Without it the
+    /// WAV is normalised to a peak of -1 dBFS. A fixed gain keeps the relative
+    /// loudness of several strikes.
+    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
+    pub wav_gain_db: Option<f64>,
+    /// Change one field of the case before it is checked, e.g. --set exciter.speed_m_s=2.5
+    /// (repeatable; the value is JSON, or a bare word for a string).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub sets: Vec<String>,
+    /// Print nothing on success.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Seconds to spend on each measurement.
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub seconds: f64,
+}
+
+/// A failure with the exit status it deserves; printed as one line.
+#[derive(Debug)]
+pub struct Failure {
+    pub status: u8,
+    pub message: String,
+}
+
+impl Failure {
+    pub fn bad_input(message: impl Into<String>) -> Self {
+        Self { status: EXIT_BAD_INPUT, message: message.into() }
+    }
+
+    pub fn failed(message: impl Into<String>) -> Self {
+        Self { status: EXIT_FAILURE, message: message.into() }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Strike(args) => strike_cmd::run(&args).map_err(|e| ("struck strike", e)),
+        Command::Bench(args) => bench_cmd::run(&args).map_err(|e| ("struck bench", e)),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err((command, failure)) => {
+            eprintln!("{command}: {}", failure.message);
+            ExitCode::from(failure.status)
+        }
+    }
+}

@@ -208,7 +208,7 @@ fn measure(
                 .iter()
                 .enumerate()
                 .fold((0, f64::MIN), |best, (i, &f)| if f > best.1 { (i, f) } else { best });
-            (vec![Contact { start_s: 0.0, end_s }], Some((f, trace.time_s(i))))
+            (vec![Contact { start_s: 0.0, end_s: case.duration_s }], Some((f, trace.time_s(i))))
         }
         ExciterSpec::Pluck(_) => (Vec::new(), None),
     };

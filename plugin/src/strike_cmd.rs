@@ -1,0 +1,89 @@
+//! `struck strike CASE.json --out DIR [--wav FILE] [--set path=value ...]`.
+
+use std::io::Write;
+
+use struck_engine::lab::{self, LabRun};
+
+use crate::output::{Staged, csv_field};
+use crate::{Failure, StrikeArgs};
+
+/// Peak level of a normalised WAV: -1 dBFS.
+const NORMALISED_PEAK: f64 = 0.891_250_938;
+
+pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
+    let shown = args.case.display();
+    let text = std::fs::read_to_string(&args.case).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
+    let case = lab::parse_case(&text, &args.sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
+    if let Some(gain) = args.wav_gain_db
+        && !gain.is_finite()
+    {
+        return Err(Failure::bad_input(format!("--wav-gain-db: must be a finite number of dB (got {gain})")));
+    }
+    let result = lab::run(&case);
+    check_finite(&result)?;
+
+    let mut staged = Staged::default();
+    let metrics_path = args.out.join("metrics.json");
+    let trace_path = args.out.join("trace.csv");
+    let metrics = serde_json::to_string_pretty(&result.metrics).expect("metrics serialise");
+    staged.write(&metrics_path, |w| writeln!(w, "{metrics}"))?;
+    staged.write(&trace_path, |w| write_trace(w, &result))?;
+    let mut wav_note = String::new();
+    if let Some(wav) = &args.wav {
+        let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let gain = match args.wav_gain_db {
+            Some(db) => 10f64.powf(db / 20.0),
+            None if peak > 0.0 => NORMALISED_PEAK / peak,
+            None => 1.0,
+        };
+        let samples: Vec<f32> = result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32).collect();
+        staged.write_wav(wav, case.sample_rate_hz, &samples)?;
+        wav_note = format!(", {} (gain {:+.1} dB re 1 N)", wav.display(), 20.0 * gain.log10());
+    }
+    staged.commit()?;
+
+    if !args.quiet {
+        let m = &result.metrics;
+        let name = m.name.clone().unwrap_or_else(|| shown.to_string());
+        let contacts = match m.contact_count {
+            0 => "no contact".to_string(),
+            1 => format!("1 contact, {:.3} ms", m.contact_time_s * 1e3),
+            n => format!("{n} contacts, {:.3} ms in all", m.contact_time_s * 1e3),
+        };
+        let rebound = m.rebound_speed_m_s.map(|v| format!(", rebound {v:.3} m/s")).unwrap_or_default();
+        println!(
+            "{name}: {} modes to {:.0} Hz; {contacts}{rebound}; bridge force {:.4} N RMS",
+            m.string.mode_count, m.string.max_mode_frequency_hz, m.bridge_force_rms_n
+        );
+        println!("wrote {}, {}{wav_note}", metrics_path.display(), trace_path.display());
+    }
+    Ok(())
+}
+
+fn write_trace(w: &mut impl Write, result: &LabRun) -> std::io::Result<()> {
+    let t = &result.trace;
+    writeln!(w, "t_s,contact_force_n,bridge_force_n,exciter_position_m,string_position_m")?;
+    for row in 0..t.len() {
+        write!(w, "{:e},{:e},{:e},", t.time_s(row), t.contact_force_n[row], t.bridge_force_n[row])?;
+        csv_field(w, t.exciter_position_m.as_ref().map(|c| c[row]))?;
+        writeln!(w, ",{:e}", t.string_position_m[row])?;
+    }
+    Ok(())
+}
+
+/// The engine is stable for every valid case; a non-finite number would mean a
+/// bug, and is reported rather than written.
+fn check_finite(result: &LabRun) -> Result<(), Failure> {
+    let t = &result.trace;
+    let all = t
+        .contact_force_n
+        .iter()
+        .chain(&t.bridge_force_n)
+        .chain(&t.string_position_m)
+        .chain(t.exciter_position_m.iter().flatten());
+    if all.into_iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(Failure::failed("the simulation produced a non-finite value; nothing was written"))
+    }
+}

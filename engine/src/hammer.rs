@@ -6,24 +6,14 @@
 //! at the striking speed; it leaves when the string throws it off, and may come
 //! back any number of times (bounces come out of the physics).
 //!
-//! Over a (sub)step of length h the force is held at the value F solved for the
-//! end of the step ([`Hold::End`]), and the hammer moves exactly under it:
+//! Over a (sub)step of length h the force is held at one value F, the felt's
+//! energy-consistent mean over the step ([`crate::contact`]), and the hammer
+//! moves exactly under it:
 //!   eta(h) = eta + v h - h^2 F / (2 M),   v(h) = v - h F / M,
 //! so it yields to the step's own force with compliance h^2 / (2 M), and the
 //! impulse it receives is exactly the sum of F h over the steps.
-//!
-//! Why the end value and not a linear ramp from the previous one: the felt in
-//! series with the string's static residual is a stiff, massless loop. Solved
-//! with the force held at its end value (implicit, like backward Euler) any
-//! step-to-step oscillation of that loop dies away; with a linear ramp (like the
-//! trapezoidal rule) it does not, and a K = 1e6 N/m mallet then chatters on and
-//! off the string every few microseconds, far more than the converged solution
-//! does (the reference cases check it). The price is first-order accuracy in the
-//! step, which is one reason contacts are sub-stepped.
 
 use crate::contact::ContactLaw;
-#[cfg(doc)]
-use crate::modal_bank::Hold;
 
 /// A hammer or mallet and how it is thrown.
 #[derive(Clone, Copy, Debug, PartialEq)]

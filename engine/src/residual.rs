@@ -25,7 +25,9 @@
 //! modal density). The residual is therefore a Kelvin-Voigt element: the static
 //! compliance R in parallel with a dashpot c = 2 mu c_g(omega_{N+1}), spring-like
 //! below the cut-off and resistive above it; its time constant c R is a few
-//! microseconds. It matters only for stiff contacts (a santoor mallet with
+//! microseconds. A first-order element leaks some loss below its corner frequency
+//! 1 / (2 pi c R), so c is capped to keep that corner at or above the first omitted
+//! mode: there are no omitted modes below it to take energy. It matters only for stiff contacts (a santoor mallet with
 //! K = 1e6 N/m sends about 1 % of its energy there); a felt hammer hardly feels it.
 //!
 //! The tangent drives the string with the distributed load -mu z'' x / L; its
@@ -73,14 +75,18 @@ pub fn omitted_bridge_share(string: &StringModes, position: f64) -> f64 {
     (1.0 - position) - kept
 }
 
-/// The dashpot of the omitted modes, 2 mu c_g at the first omitted mode, N s/m.
-pub fn omitted_damping_ns_m(string: &StringModes) -> f64 {
+/// The dashpot of the omitted modes at `position`, N s/m: 2 mu c_g at the first
+/// omitted mode, but no stronger than puts the element's corner frequency
+/// 1 / (2 pi c R) at that mode (the omitted modes absorb nothing below their band).
+pub fn omitted_damping_ns_m(string: &StringModes, position: f64) -> f64 {
     let (t, ei, mu) = (string.tension_n, string.bending_stiffness_n_m2, string.mass_per_length_kg_m);
     let k = (string.mode_count() + 1) as f64 * PI / string.length_m;
     let omega = ((t * k * k + ei * k.powi(4)) / mu).sqrt();
     // omega^2 = (T k^2 + EI k^4) / mu, so d omega / d k = (T k + 2 EI k^3) / (mu omega).
     let group_velocity = (t * k + 2.0 * ei * k.powi(3)) / (mu * omega);
-    2.0 * mu * group_velocity
+    let band_average = 2.0 * mu * group_velocity;
+    let compliance = omitted_compliance_m_n(string, position);
+    if compliance > 0.0 { band_average.min(1.0 / (compliance * omega)) } else { band_average }
 }
 
 /// For a tangent at x = L driven with acceleration z'': the omitted modes' static
@@ -165,9 +171,13 @@ mod tests {
     fn omitted_damping_is_twice_the_impedance_for_a_flexible_string() {
         // Without stiffness c_g = c and the dashpot is 2 Z0, the infinite string's.
         let s = string(0.0, 20_000.0);
-        assert!((omitted_damping_ns_m(&s) / (2.0 * s.impedance_ns_m()) - 1.0).abs() < 1e-12);
-        // With stiffness the high modes travel faster: a stronger dashpot.
-        assert!(omitted_damping_ns_m(&string(2e-4, 20_000.0)) > 2.0 * s.impedance_ns_m());
+        let k = (s.mode_count() + 1) as f64 * PI / s.length_m;
+        let corner_limit = 1.0 / (omitted_compliance_m_n(&s, 0.4) * k * (s.tension_n / s.mass_per_length_kg_m).sqrt());
+        let expected = (2.0 * s.impedance_ns_m()).min(corner_limit);
+        assert!((omitted_damping_ns_m(&s, 0.4) / expected - 1.0).abs() < 1e-12);
+        // For the santoor string at 2/5 the band average is the smaller of the two.
+        let stiff = string(2e-4, 43_200.0);
+        assert!(omitted_damping_ns_m(&stiff, 0.4) > 2.0 * stiff.impedance_ns_m());
     }
 
     #[test]

@@ -77,7 +77,7 @@ struct Residual {
 impl Residual {
     fn new(string: &StringModes, position: f64, sample_s: f64, substeps: usize) -> Self {
         let compliance_m_n = residual::omitted_compliance_m_n(string, position);
-        let time_constant_s = residual::omitted_damping_ns_m(string) * compliance_m_n;
+        let time_constant_s = residual::omitted_damping_ns_m(string, position) * compliance_m_n;
         let relax = |h: f64| if time_constant_s > 0.0 { (-h / time_constant_s).exp() } else { 0.0 };
         Self {
             compliance_m_n,

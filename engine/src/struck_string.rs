@@ -377,7 +377,7 @@ impl StruckString {
             let (y_hat, bridge_hat) = bank.step_driven(sub, &d.sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
-            let ContactStep { compression_m, step_force_n: force } =
+            let ContactStep { compression_m, step_force_n: force, .. } =
                 d.hammer.spec.law.solve(d.compression_m, c_hat, compliance);
             d.hammer.commit(h, eta_hat, force);
             let residual_m = relax * d.residual_m + (1.0 - relax) * d.residual.compliance_m_n * force;

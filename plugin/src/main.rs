@@ -38,7 +38,7 @@ enum Command {
     /// Simulate one strike case and write its metrics and trace.
     #[command(long_about = "Simulate one string excited once, as described by a strike case \
                             (a JSON file: sample_rate_hz, duration_s, string {...}, exciter {...}; \
-                            see strike-case.md), and write DIR/metrics.json (contacts, contact time, \
+                            the README describes every field), and write DIR/metrics.json (contacts, contact time, \
                             peak force, rebound, bridge-force RMS, spectral centroid, the first 20 \
                             partials, the derived string) and DIR/trace.csv (one row per sample: \
                             t_s, contact_force_n, bridge_force_n, exciter_position_m, \

@@ -176,7 +176,9 @@ mod tests {
             ContactLaw { stiffness: 10.0, exponent: 1.5 },
         ];
         for law in laws {
-            for (c0, c_hat, w) in [(0.0, 1e-4, 1e-5), (2e-4, 3e-4, 2e-6), (5e-4, 1e-3, 1e-7), (1e-4, -1e-4, 1e-6), (-1e-5, 1e-9, 1e-3)] {
+            for (c0, c_hat, w) in
+                [(0.0, 1e-4, 1e-5), (2e-4, 3e-4, 2e-6), (5e-4, 1e-3, 1e-7), (1e-4, -1e-4, 1e-6), (-1e-5, 1e-9, 1e-3)]
+            {
                 let s = check(law, c0, c_hat, w);
                 assert!(s.step_force_n >= 0.0);
                 assert!(s.compression_m <= c_hat);

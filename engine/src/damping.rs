@@ -74,11 +74,9 @@ impl LossModel {
     /// Loss factor from air viscosity at frequency `f_hz`.
     pub fn air_loss_factor(&self, f_hz: f64) -> f64 {
         let mu = self.mass_per_length_kg_m;
-        let d = self
-            .outer_diameter_m
-            .unwrap_or_else(|| (4.0 * mu / (PI * STEEL_DENSITY_KG_M3)).sqrt());
-        let resistance = 2.0 * PI * AIR_VISCOSITY_PA_S
-            + 2.0 * PI * d * (PI * AIR_VISCOSITY_PA_S * AIR_DENSITY_KG_M3 * f_hz).sqrt();
+        let d = self.outer_diameter_m.unwrap_or_else(|| (4.0 * mu / (PI * STEEL_DENSITY_KG_M3)).sqrt());
+        let resistance =
+            2.0 * PI * AIR_VISCOSITY_PA_S + 2.0 * PI * d * (PI * AIR_VISCOSITY_PA_S * AIR_DENSITY_KG_M3 * f_hz).sqrt();
         resistance / (2.0 * PI * f_hz * mu)
     }
 

@@ -24,6 +24,9 @@
 //!
 //! Units are SI throughout and carried in names (`_hz`, `_m`, `_n`, `_s`).
 
+// Checks are written `!(x > 0.0)` on purpose: a NaN must fail them.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod analysis;
 pub mod contact;
 pub mod damping;

@@ -418,7 +418,8 @@ fn driven_step(
     let (er, _) = carry_re.as_chunks::<LANES>();
     let (ei, _) = carry_im.as_chunks::<LANES>();
     let (c, _) = observe.as_chunks::<LANES>();
-    for ((((((zr, zi), pr), pi), er), ei), c) in re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi).zip(er).zip(ei).zip(c) {
+    for ((((((zr, zi), pr), pi), er), ei), c) in re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi).zip(er).zip(ei).zip(c)
+    {
         for l in 0..LANES {
             let nr = er[l].mul_add(input, pr[l].mul_add(zr[l], -(pi[l] * zi[l])));
             let ni = ei[l].mul_add(input, pr[l].mul_add(zi[l], pi[l] * zr[l]));

@@ -29,7 +29,10 @@ pub fn cpu_model() -> String {
 pub fn kernel_variant() -> &'static str {
     #[cfg(target_arch = "x86_64")]
     {
-        if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") && is_x86_feature_detected!("fma") {
+        if is_x86_feature_detected!("avx512f")
+            && is_x86_feature_detected!("avx512vl")
+            && is_x86_feature_detected!("fma")
+        {
             return "x86_64 AVX-512 + FMA";
         }
         if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {

@@ -34,11 +34,8 @@ mod tests {
         let p = PluckSpec { displacement_m: 0.002, position: 1.0 / 7.8 };
         for &x in &[0.05, p.position, 0.5, 0.9] {
             let y: f64 = (1..200_000).map(|n| p.modal_displacement_m(n) * (n as f64 * PI * x).sin()).sum();
-            let triangle = if x <= p.position {
-                0.002 * x / p.position
-            } else {
-                0.002 * (1.0 - x) / (1.0 - p.position)
-            };
+            let triangle =
+                if x <= p.position { 0.002 * x / p.position } else { 0.002 * (1.0 - x) / (1.0 - p.position) };
             assert!((y - triangle).abs() < 1e-8, "{x}: {y} vs {triangle}");
         }
     }

@@ -67,11 +67,8 @@ pub fn omitted_compliance_m_n(string: &StringModes, position: f64) -> f64 {
 /// Static share of the bridge force per newton of contact force at `position`
 /// carried by the omitted modes.
 pub fn omitted_bridge_share(string: &StringModes, position: f64) -> f64 {
-    let kept: f64 = string
-        .modes
-        .iter()
-        .map(|mode| 2.0 * string.shape_at(mode, position) / (mode.number as f64 * PI))
-        .sum();
+    let kept: f64 =
+        string.modes.iter().map(|mode| 2.0 * string.shape_at(mode, position) / (mode.number as f64 * PI)).sum();
     (1.0 - position) - kept
 }
 
@@ -161,9 +158,8 @@ mod tests {
     #[test]
     fn bridge_share_is_the_lever_rule_minus_the_kept_modes() {
         let s = string(2e-4, 20_000.0);
-        let tail: f64 = (s.mode_count() + 1..=4_000_000)
-            .map(|n| 2.0 * (n as f64 * PI * 0.4).sin() / (n as f64 * PI))
-            .sum();
+        let tail: f64 =
+            (s.mode_count() + 1..=4_000_000).map(|n| 2.0 * (n as f64 * PI * 0.4).sin() / (n as f64 * PI)).sum();
         assert!((omitted_bridge_share(&s, 0.4) - tail).abs() < 1e-6);
     }
 

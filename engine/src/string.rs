@@ -128,11 +128,7 @@ impl Mode {
 }
 
 fn positive(value: f64, what: &'static str) -> Result<f64, StringError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(StringError::NotPositive(what))
-    }
+    if value.is_finite() && value > 0.0 { Ok(value) } else { Err(StringError::NotPositive(what)) }
 }
 
 impl StringSpec {
@@ -197,13 +193,7 @@ impl StringSpec {
             Mass::SolidWire { diameter_m, .. } => Some(diameter_m),
             Mass::PerLengthKgM(_) => None,
         });
-        let loss = LossModel {
-            length_m,
-            tension_n,
-            mass_per_length_kg_m: mu,
-            inharmonicity,
-            outer_diameter_m,
-        };
+        let loss = LossModel { length_m, tension_n, mass_per_length_kg_m: mu, inharmonicity, outer_diameter_m };
         let mut modes = Vec::new();
         for n in 1..=MAX_MODES {
             let f = n as f64 * f0_hz * (1.0 + inharmonicity * (n * n) as f64).sqrt();
@@ -214,12 +204,7 @@ impl StringSpec {
             if !(q > 0.5) {
                 return Err(StringError::Overdamped { mode: n, q });
             }
-            modes.push(Mode {
-                number: n,
-                wavenumber_rad_m: n as f64 * PI / length_m,
-                omega_rad_s: 2.0 * PI * f,
-                q,
-            });
+            modes.push(Mode { number: n, wavenumber_rad_m: n as f64 * PI / length_m, omega_rad_s: 2.0 * PI * f, q });
         }
         Ok(StringModes {
             length_m,

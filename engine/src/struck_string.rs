@@ -186,7 +186,13 @@ impl StruckString {
         self.exciter = Exciter::None;
     }
 
-    fn drive_at(&self, step: &StepTable, hold: Hold, gain: impl Fn(usize) -> f64, observe: impl Fn(usize) -> f64) -> DriveTable {
+    fn drive_at(
+        &self,
+        step: &StepTable,
+        hold: Hold,
+        gain: impl Fn(usize) -> f64,
+        observe: impl Fn(usize) -> f64,
+    ) -> DriveTable {
         let gains: Vec<f64> = (0..self.bank.len()).map(&gain).collect();
         let observes: Vec<f64> = (0..self.bank.len()).map(&observe).collect();
         DriveTable::new(step, hold, self.bank.weights(), &gains, &observes)
@@ -222,7 +228,7 @@ impl StruckString {
         let s = &self.string;
         let gains: Vec<f64> = s.modes.iter().map(|m| TangentSpec::modal_gain(m.number)).collect();
         let weights = self.bank.weights().to_vec();
-        let sign = |i: usize| if s.modes[i].number % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = |i: usize| if s.modes[i].number.is_multiple_of(2) { 1.0 } else { -1.0 };
         let drive = self.drive_at(&self.audio, Hold::Linear, |i| gains[i], |i| sign(i) * weights[i]);
         for (i, g) in gains.iter().enumerate() {
             self.bank.add_velocity(i, g * spec.speed_m_s);
@@ -301,15 +307,9 @@ impl StruckString {
                 self.bank.process_free(&self.audio, &mut out);
                 Tick { bridge_force_n: out[0], ..Tick::default() }
             }
-            Exciter::Hammer(d) => Self::tick_hammer(
-                &mut self.bank,
-                &self.audio,
-                &self.sub,
-                self.substeps,
-                self.hold_samples,
-                d,
-                observer,
-            ),
+            Exciter::Hammer(d) => {
+                Self::tick_hammer(&mut self.bank, &self.audio, &self.sub, self.substeps, self.hold_samples, d, observer)
+            }
             Exciter::Tangent(d) => {
                 let (string, bank, step) = (&self.string, &mut self.bank, &self.audio);
                 let (end_hat, bridge_hat) = bank.step_driven(step, &d.drive, d.acceleration_m_s2);

@@ -42,7 +42,7 @@ impl TangentSpec {
 
     /// Modal acceleration of mode n per unit z'' (and modal velocity per unit jump in z').
     pub fn modal_gain(mode_number: usize) -> f64 {
-        let sign = if mode_number % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if mode_number.is_multiple_of(2) { 1.0 } else { -1.0 };
         2.0 * sign / (mode_number as f64 * PI)
     }
 

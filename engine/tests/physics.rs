@@ -99,6 +99,9 @@ fn strike_and_record(string: StringModes, fs: f64, hammer: HammerSpec, seconds: 
     (0..(seconds * fs) as usize).map(|_| s.tick().bridge_force_n).collect()
 }
 
+/// A named string (built for a given cut-off) and the hammer that strikes it.
+type StrikeCase = (&'static str, fn(f64) -> StringModes, HammerSpec);
+
 fn cents(f: f64, reference: f64) -> f64 {
     1200.0 * (f / reference).log2()
 }
@@ -199,7 +202,7 @@ fn the_omitted_modes_take_what_a_converged_string_puts_above_the_cut_off() {
 fn strikes_at_96_khz_agree_with_a_converged_string() {
     // The same engine at 1.536 MHz with modes to 0.45 fs (690 kHz for the santoor
     // string) is converged: it reproduces the published S1 reference to 0.2 %.
-    let cases: [(&str, fn(f64) -> StringModes, HammerSpec); 4] = [
+    let cases: [StrikeCase; 4] = [
         ("santoor mallet at 2/5", |f| santoor_string(Damping::UniformQ(1000.0), f), santoor_mallet(0.4)),
         ("santoor mallet at 1/10", |f| santoor_string(Damping::UniformQ(1000.0), f), santoor_mallet(0.1)),
         ("C4 hammer", |f| c4_string(Damping::UniformQ(2000.0), f), c4_hammer()),
@@ -266,9 +269,13 @@ fn contacts(string: StringModes, fs: f64, hammer: HammerSpec) -> (usize, f64, f6
 
 #[test]
 fn contact_times_do_not_depend_on_the_sample_rate() {
-    let cases: [(&str, fn(f64) -> StringModes, HammerSpec); 4] = [
+    let cases: [StrikeCase; 4] = [
         ("santoor mallet", |fs| santoor_string(Damping::UniformQ(1000.0), 0.45 * fs), santoor_mallet(0.4)),
-        ("santoor mallet near the bridge", |fs| santoor_string(Damping::UniformQ(1000.0), 0.45 * fs), santoor_mallet(0.1)),
+        (
+            "santoor mallet near the bridge",
+            |fs| santoor_string(Damping::UniformQ(1000.0), 0.45 * fs),
+            santoor_mallet(0.1),
+        ),
         ("C4 hammer", |fs| c4_string(Damping::UniformQ(2000.0), 0.45 * fs), c4_hammer()),
         ("C7 hammer", |fs| c7_string(Damping::UniformQ(2000.0), 0.45 * fs), c7_hammer()),
     ];

@@ -21,7 +21,11 @@ fn temporary_beside(path: &Path) -> PathBuf {
 
 impl Staged {
     /// Write one file through `fill` to a temporary name beside `path`.
-    pub fn write(&mut self, path: &Path, fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>) -> Result<(), Failure> {
+    pub fn write(
+        &mut self,
+        path: &Path,
+        fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
+    ) -> Result<(), Failure> {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             fs::create_dir_all(parent)
                 .map_err(|e| Failure::failed(format!("cannot create {}: {e}", parent.display())))?;

@@ -12,7 +12,8 @@ const NORMALISED_PEAK: f64 = 0.891_250_938;
 
 pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     let shown = args.case.display();
-    let text = std::fs::read_to_string(&args.case).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
+    let text =
+        std::fs::read_to_string(&args.case).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
     let case = lab::parse_case(&text, &args.sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
     if let Some(gain) = args.wav_gain_db
         && !gain.is_finite()

@@ -159,7 +159,13 @@ fn set_changes_a_field_before_the_case_is_checked() {
     // A linear spring: everything scales with the speed.
     assert!((loud / soft - 2.5).abs() < 1e-6, "{loud} / {soft}");
     // Several, and a string value.
-    let out = s.strike(&["--quiet", "--set", "exciter.kind=pluck", "--set", "exciter={\"kind\":\"pluck\",\"displacement_m\":0.001,\"position\":0.2}"]);
+    let out = s.strike(&[
+        "--quiet",
+        "--set",
+        "exciter.kind=pluck",
+        "--set",
+        "exciter={\"kind\":\"pluck\",\"displacement_m\":0.001,\"position\":0.2}",
+    ]);
     assert!(out.status.success(), "{}", stderr(&out));
 }
 
@@ -237,8 +243,14 @@ fn refuses_a_misspelt_field() {
 
 #[test]
 fn refuses_a_missing_field() {
-    refuses(&edited(|c| c["string"].as_object_mut().unwrap().remove("length_m").map(drop).unwrap()), "string.length_m: missing");
-    refuses(&edited(|c| c["exciter"].as_object_mut().unwrap().remove("speed_m_s").map(drop).unwrap()), "exciter.speed_m_s: missing");
+    refuses(
+        &edited(|c| c["string"].as_object_mut().unwrap().remove("length_m").map(drop).unwrap()),
+        "string.length_m: missing",
+    );
+    refuses(
+        &edited(|c| c["exciter"].as_object_mut().unwrap().remove("speed_m_s").map(drop).unwrap()),
+        "exciter.speed_m_s: missing",
+    );
 }
 
 #[test]
@@ -253,7 +265,10 @@ fn refuses_both_f1_and_tension() {
 
 #[test]
 fn refuses_neither_f1_nor_tension() {
-    refuses(&edited(|c| c["string"].as_object_mut().unwrap().remove("f1_hz").map(drop).unwrap()), "string.f1_hz: missing");
+    refuses(
+        &edited(|c| c["string"].as_object_mut().unwrap().remove("f1_hz").map(drop).unwrap()),
+        "string.f1_hz: missing",
+    );
 }
 
 #[test]
@@ -275,7 +290,10 @@ fn refuses_a_density_without_a_diameter() {
 
 #[test]
 fn refuses_both_inharmonicity_and_youngs_modulus() {
-    refuses(&edited(|c| c["string"]["inharmonicity"] = 2e-4.into()), "string.youngs_modulus_pa: contradicts string.inharmonicity");
+    refuses(
+        &edited(|c| c["string"]["inharmonicity"] = 2e-4.into()),
+        "string.youngs_modulus_pa: contradicts string.inharmonicity",
+    );
 }
 
 #[test]
@@ -340,12 +358,18 @@ fn refuses_a_felt_exponent_below_one() {
 
 #[test]
 fn refuses_a_mode_grid_with_no_modes() {
-    refuses(&edited(|c| c["string"]["max_frequency_hz"] = 300.0.into()), "string.max_frequency_hz: the mode grid is empty");
+    refuses(
+        &edited(|c| c["string"]["max_frequency_hz"] = 300.0.into()),
+        "string.max_frequency_hz: the mode grid is empty",
+    );
 }
 
 #[test]
 fn refuses_a_cut_off_above_nyquist() {
-    refuses(&edited(|c| c["string"]["max_frequency_hz"] = 30_000.0.into()), "string.max_frequency_hz: must not exceed the Nyquist");
+    refuses(
+        &edited(|c| c["string"]["max_frequency_hz"] = 30_000.0.into()),
+        "string.max_frequency_hz: must not exceed the Nyquist",
+    );
 }
 
 #[test]
@@ -357,7 +381,10 @@ fn refuses_an_overdamped_or_empty_q() {
 
 #[test]
 fn refuses_loss_parameters_beside_a_q() {
-    refuses(&edited(|c| c["string"]["internal_loss_factor"] = 1e-4.into()), "string.internal_loss_factor: contradicts string.q");
+    refuses(
+        &edited(|c| c["string"]["internal_loss_factor"] = 1e-4.into()),
+        "string.internal_loss_factor: contradicts string.q",
+    );
 }
 
 #[test]
@@ -379,7 +406,10 @@ fn refuses_fields_of_another_kind_of_exciter() {
 
 #[test]
 fn refuses_a_tangent_without_a_displacement() {
-    refuses(&edited(|c| c["exciter"] = serde_json::json!({ "kind": "tangent", "speed_m_s": 0.5 })), "exciter.displacement_m: missing");
+    refuses(
+        &edited(|c| c["exciter"] = serde_json::json!({ "kind": "tangent", "speed_m_s": 0.5 })),
+        "exciter.displacement_m: missing",
+    );
 }
 
 #[test]

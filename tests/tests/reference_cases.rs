@@ -15,7 +15,12 @@ use struck_tests::{Csv, read_json, reference_dir, stderr, struck};
 
 fn within(what: &str, value: f64, expected: f64, tolerance: f64) {
     let error = value / expected - 1.0;
-    assert!(error.abs() <= tolerance, "{what}: {value} vs {expected} ({:+.3} %, allowed {} %)", 100.0 * error, 100.0 * tolerance);
+    assert!(
+        error.abs() <= tolerance,
+        "{what}: {value} vs {expected} ({:+.3} %, allowed {} %)",
+        100.0 * error,
+        100.0 * tolerance
+    );
 }
 
 fn check_case(name: &str) {
@@ -46,7 +51,12 @@ fn check_case(name: &str) {
     let lowpassed = lowpass_20k(&bridge, fs);
     let expected_rms = expected["bridge_rms_0_to_0p5s_N"].as_f64().unwrap();
     within(&format!("{name} bridge RMS (from the trace)"), rms(&lowpassed), expected_rms, 0.02);
-    within(&format!("{name} bridge RMS (metrics)"), metrics["bridge_force_rms_lp20k_n"].as_f64().unwrap(), expected_rms, 0.02);
+    within(
+        &format!("{name} bridge RMS (metrics)"),
+        metrics["bridge_force_rms_lp20k_n"].as_f64().unwrap(),
+        expected_rms,
+        0.02,
+    );
     within(&format!("{name} bridge RMS (raw)"), metrics["bridge_force_rms_n"].as_f64().unwrap(), expected_rms, 0.02);
 
     // The contact force's peak: low-passed where the reference gives it, else as sampled.
@@ -55,7 +65,12 @@ fn check_case(name: &str) {
         Some(peak) => {
             let from_trace = lowpass_20k(&contact, fs).into_iter().fold(f64::MIN, f64::max);
             within(&format!("{name} low-passed peak force"), from_trace, peak, 0.03);
-            within(&format!("{name} low-passed peak (metrics)"), metrics["peak_contact_force_lp20k_n"].as_f64().unwrap(), peak, 0.03);
+            within(
+                &format!("{name} low-passed peak (metrics)"),
+                metrics["peak_contact_force_lp20k_n"].as_f64().unwrap(),
+                peak,
+                0.03,
+            );
         }
         None => {
             let peak = expected["peak_contact_force_N"].as_f64().unwrap();
@@ -71,7 +86,12 @@ fn check_case(name: &str) {
     for (ours, theirs) in partials.iter().zip(expected_partials) {
         let n = theirs["n"].as_u64().unwrap();
         assert_eq!(ours["number"].as_u64().unwrap(), n);
-        within(&format!("{name} partial {n} frequency"), ours["frequency_hz"].as_f64().unwrap(), theirs["f_hz"].as_f64().unwrap(), 1e-9);
+        within(
+            &format!("{name} partial {n} frequency"),
+            ours["frequency_hz"].as_f64().unwrap(),
+            theirs["f_hz"].as_f64().unwrap(),
+            1e-9,
+        );
         let level = theirs["level_db"].as_f64().unwrap();
         if level > strongest - 60.0 {
             let difference = ours["level_db"].as_f64().unwrap() - level;

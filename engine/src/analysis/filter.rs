@@ -46,7 +46,7 @@ impl Biquad {
 
 /// Second-order sections of a digital Butterworth low-pass of even `order`.
 pub fn butterworth_lowpass(order: usize, cutoff_hz: f64, sample_rate_hz: f64) -> Vec<Biquad> {
-    assert!(order >= 2 && order % 2 == 0, "even order");
+    assert!(order >= 2 && order.is_multiple_of(2), "even order");
     assert!(cutoff_hz > 0.0 && cutoff_hz < sample_rate_hz / 2.0, "cut-off below Nyquist");
     let fs2 = 2.0 * sample_rate_hz;
     let warped = fs2 * (PI * cutoff_hz / sample_rate_hz).tan();

@@ -47,7 +47,14 @@ pub fn dtft_magnitude(signal: &[f64], frequency_hz: f64, sample_rate_hz: f64) ->
 /// The highest value of |X(f)| within [lo, hi] Hz of an already windowed signal,
 /// found from the best FFT bin and then refined on the continuous spectrum
 /// (a golden-section search over the bin on either side).
-fn peak_magnitude(windowed: &[f64], spectrum: &[f64], bin_hz: f64, sample_rate_hz: f64, lo: f64, hi: f64) -> Option<f64> {
+fn peak_magnitude(
+    windowed: &[f64],
+    spectrum: &[f64],
+    bin_hz: f64,
+    sample_rate_hz: f64,
+    lo: f64,
+    hi: f64,
+) -> Option<f64> {
     let first = (lo / bin_hz).ceil().max(0.0) as usize;
     let last = ((hi / bin_hz).floor() as usize).min(spectrum.len().saturating_sub(1));
     if first > last || first >= spectrum.len() {
@@ -157,10 +164,7 @@ pub fn track_partial(signal: &[f64], sample_rate_hz: f64, guess_hz: f64, start_s
         logs.push(sum.norm().ln());
         begin += hop;
     }
-    TrackedPartial {
-        frequency_hz: guess_hz + slope(&times, &phases) / (2.0 * PI),
-        decay_rate_s: -slope(&times, &logs),
-    }
+    TrackedPartial { frequency_hz: guess_hz + slope(&times, &phases) / (2.0 * PI), decay_rate_s: -slope(&times, &logs) }
 }
 
 fn slope(x: &[f64], y: &[f64]) -> f64 {

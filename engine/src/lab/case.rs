@@ -12,7 +12,7 @@ use crate::contact::ContactLaw;
 use crate::damping::{Damping, PhysicalLoss};
 use crate::hammer::HammerSpec;
 use crate::pluck::PluckSpec;
-use crate::string::{Mass, Stiffness, StringError, StringModes, StringSpec, Tuning, MAX_MODES};
+use crate::string::{MAX_MODES, Mass, Stiffness, StringError, StringModes, StringSpec, Tuning};
 use crate::tangent::TangentSpec;
 
 /// Lowest and highest sample rates the lab accepts, Hz.
@@ -179,7 +179,12 @@ impl<'a> Fields<'a> {
 
     fn fraction(&self, key: &str) -> Result<f64, CaseError> {
         let v = self.required(key)?;
-        self.check(key, v, v > 0.0 && v < 1.0, "must lie strictly between 0 and 1 (a fraction of the length from the bridge)")
+        self.check(
+            key,
+            v,
+            v > 0.0 && v < 1.0,
+            "must lie strictly between 0 and 1 (a fraction of the length from the bridge)",
+        )
     }
 
     /// Refuse `key` when `other` is also given.
@@ -212,9 +217,8 @@ const TANGENT_FIELDS: &[&str] = &["kind", "speed_m_s", "displacement_m"];
 const PLUCK_FIELDS: &[&str] = &["kind", "displacement_m", "position"];
 
 fn case_from_value(root: &Value) -> Result<StrikeCase, CaseError> {
-    let top = Fields::new("", Some(root), CASE_FIELDS).map_err(|e| {
-        if e.field.is_empty() { CaseError { field: "case".into(), reason: e.reason } } else { e }
-    })?;
+    let top = Fields::new("", Some(root), CASE_FIELDS)
+        .map_err(|e| if e.field.is_empty() { CaseError { field: "case".into(), reason: e.reason } } else { e })?;
     let name = match root.get("name") {
         None => None,
         Some(Value::String(s)) => Some(s.clone()),
@@ -252,8 +256,15 @@ fn string_from_value(value: Option<&Value>, fs: f64) -> Result<StringSpec, CaseE
             Some(d) => Mass::SolidWire { diameter_m: d, density_kg_m3: rho },
             None => return refuse("string.density_kg_m3", "needs string.diameter_m to give the mass"),
         },
-        _ if diameter.is_some() => return refuse("string.density_kg_m3", "missing (diameter_m gives the mass only with a density)"),
-        _ => return refuse("string.mass_per_length_kg_m", "missing (give mass_per_length_kg_m, or diameter_m and density_kg_m3)"),
+        _ if diameter.is_some() => {
+            return refuse("string.density_kg_m3", "missing (diameter_m gives the mass only with a density)");
+        }
+        _ => {
+            return refuse(
+                "string.mass_per_length_kg_m",
+                "missing (give mass_per_length_kg_m, or diameter_m and density_kg_m3)",
+            );
+        }
     };
 
     s.exclusive("youngs_modulus_pa", "inharmonicity", "give at most one of them")?;
@@ -289,7 +300,10 @@ fn string_from_value(value: Option<&Value>, fs: f64) -> Result<StringSpec, CaseE
         Some(q) => {
             for key in ["internal_loss_factor", "bridge_admittance_s_kg"] {
                 if s.has(key) {
-                    return refuse(s.name(key), "contradicts string.q: the physical loss model applies only when q is absent");
+                    return refuse(
+                        s.name(key),
+                        "contradicts string.q: the physical loss model applies only when q is absent",
+                    );
                 }
             }
             q_from_value(q)?
@@ -308,24 +322,20 @@ fn string_from_value(value: Option<&Value>, fs: f64) -> Result<StringSpec, CaseE
 
     let nyquist = fs / 2.0;
     let max_frequency_hz = match s.optional_positive("max_frequency_hz")? {
-        Some(f) => s.check("max_frequency_hz", f, f <= nyquist, &format!("must not exceed the Nyquist frequency {nyquist} Hz"))?,
+        Some(f) => s.check(
+            "max_frequency_hz",
+            f,
+            f <= nyquist,
+            &format!("must not exceed the Nyquist frequency {nyquist} Hz"),
+        )?,
         None => LAB_CUTOFF_FRACTION * fs,
     };
 
-    let spec = StringSpec {
-        length_m,
-        tuning,
-        mass,
-        stiffness,
-        damping,
-        max_frequency_hz,
-        outer_diameter_m: diameter,
-    };
+    let spec = StringSpec { length_m, tuning, mass, stiffness, damping, max_frequency_hz, outer_diameter_m: diameter };
     match spec.build() {
-        Ok(modes) if modes.mode_count() >= MAX_MODES => refuse(
-            "string.max_frequency_hz",
-            format!("keeps more than {} modes; lower it", MAX_MODES - 1),
-        ),
+        Ok(modes) if modes.mode_count() >= MAX_MODES => {
+            refuse("string.max_frequency_hz", format!("keeps more than {} modes; lower it", MAX_MODES - 1))
+        }
         Ok(_) => Ok(spec),
         Err(e @ StringError::TooStiffToTune { .. }) => refuse("string.f1_hz", e.to_string()),
         Err(e @ StringError::NoModes { .. }) => refuse(
@@ -371,7 +381,12 @@ fn exciter_from_value(value: Option<&Value>) -> Result<ExciterSpec, CaseError> {
                 return refuse("exciter.hysteresis", "not supported yet (the felt is elastic: F = K C^alpha)");
             }
             let exponent = e.required("exponent")?;
-            e.check("exponent", exponent, (1.0..=MAX_EXPONENT).contains(&exponent), &format!("must lie between 1 and {MAX_EXPONENT}"))?;
+            e.check(
+                "exponent",
+                exponent,
+                (1.0..=MAX_EXPONENT).contains(&exponent),
+                &format!("must lie between 1 and {MAX_EXPONENT}"),
+            )?;
             Ok(ExciterSpec::Hammer(HammerSpec {
                 mass_kg: e.positive("mass_kg")?,
                 law: ContactLaw { stiffness: e.positive("stiffness")?, exponent },

@@ -214,8 +214,8 @@ fn measure(
     };
     let contacts = merge_contacts(&raw, CONTACT_MERGE_GAP_S);
     let has_contact = !matches!(case.exciter, ExciterSpec::Pluck(_));
-    let lowpassed_peak = has_contact
-        .then(|| lowpass_20k(&trace.contact_force_n, fs).into_iter().fold(f64::MIN, f64::max));
+    let lowpassed_peak =
+        has_contact.then(|| lowpass_20k(&trace.contact_force_n, fs).into_iter().fold(f64::MIN, f64::max));
     let predicted: Vec<f64> = (1..=PARTIAL_COUNT).map(|n| string.partial_hz(n)).collect();
     let levels = partial_levels_db(&trace.bridge_force_n, fs, PARTIAL_WINDOW_S, &predicted);
     let last_mode = string.modes.last().expect("a string has at least one mode");

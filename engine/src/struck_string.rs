@@ -223,6 +223,8 @@ impl StruckString {
     }
 
     /// Press a tangent into the string's far end (x = L), the string at rest there.
+    /// The tangent stays until another exciter replaces it; the string's end then
+    /// returns to rest at once (a key's release through the felt comes with the keys).
     pub fn press_tangent(&mut self, spec: TangentSpec) {
         self.settle_exciter();
         let s = &self.string;

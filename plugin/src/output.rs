@@ -20,23 +20,14 @@ fn temporary_beside(path: &Path) -> PathBuf {
 }
 
 impl Staged {
-    /// Write one file through `fill` to a temporary name beside `path`.
-    pub fn write(
-        &mut self,
-        path: &Path,
-        fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
-    ) -> Result<(), Failure> {
+    /// Have `write_to` write a temporary file beside `path` and stage it.
+    fn stage(&mut self, path: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             fs::create_dir_all(parent)
                 .map_err(|e| Failure::failed(format!("cannot create {}: {e}", parent.display())))?;
         }
         let temporary = temporary_beside(path);
-        let result = fs::File::create(&temporary).and_then(|file| {
-            let mut writer = BufWriter::new(file);
-            fill(&mut writer)?;
-            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
-        });
-        match result {
+        match write_to(&temporary) {
             Ok(()) => {
                 self.files.push((temporary, path.to_path_buf()));
                 Ok(())
@@ -48,35 +39,34 @@ impl Staged {
         }
     }
 
-    /// Write a WAV file (hound needs a seekable file, not a writer).
+    /// Write one file through `fill`.
+    pub fn write(
+        &mut self,
+        path: &Path,
+        fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
+    ) -> Result<(), Failure> {
+        self.stage(path, |temporary| {
+            let mut writer = BufWriter::new(fs::File::create(temporary)?);
+            fill(&mut writer)?;
+            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
+        })
+    }
+
+    /// Write a mono 32-bit float WAV.
     pub fn write_wav(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            fs::create_dir_all(parent)
-                .map_err(|e| Failure::failed(format!("cannot create {}: {e}", parent.display())))?;
-        }
-        let temporary = temporary_beside(path);
         let spec = hound::WavSpec {
             channels: 1,
             sample_rate: sample_rate_hz.round() as u32,
             bits_per_sample: 32,
             sample_format: hound::SampleFormat::Float,
         };
-        let result = hound::WavWriter::create(&temporary, spec).and_then(|mut w| {
+        self.stage(path, |temporary| {
+            let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
             for &s in samples {
-                w.write_sample(s)?;
+                w.write_sample(s).map_err(io::Error::other)?;
             }
-            w.finalize()
-        });
-        match result {
-            Ok(()) => {
-                self.files.push((temporary, path.to_path_buf()));
-                Ok(())
-            }
-            Err(e) => {
-                let _ = fs::remove_file(&temporary);
-                Err(Failure::failed(format!("cannot write {}: {e}", path.display())))
-            }
-        }
+            w.finalize().map_err(io::Error::other)
+        })
     }
 
     /// Put every staged file in place.

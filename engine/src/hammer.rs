@@ -58,11 +58,6 @@ impl Hammer {
         self.position_m = predicted_m - self.compliance_m_n(h) * force_n;
         self.velocity_m_s -= h * force_n / self.spec.mass_kg;
     }
-
-    /// Kinetic energy, J.
-    pub fn energy_j(&self) -> f64 {
-        0.5 * self.spec.mass_kg * self.velocity_m_s * self.velocity_m_s
-    }
 }
 
 #[cfg(test)]

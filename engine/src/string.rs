@@ -251,16 +251,6 @@ impl StringModes {
     pub fn mode_count(&self) -> usize {
         self.modes.len()
     }
-
-    /// Total energy of a set of modal displacements and velocities (kinetic + potential).
-    pub fn energy_j(&self, displacement_m: &[f64], velocity_m_s: &[f64]) -> f64 {
-        let m = self.modal_mass_kg();
-        self.modes
-            .iter()
-            .zip(displacement_m.iter().zip(velocity_m_s))
-            .map(|(mode, (q, v))| 0.5 * m * (v * v + mode.omega_rad_s * mode.omega_rad_s * q * q))
-            .sum()
-    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@
 //! ([`crate::contact`]); the coefficient sets for both step sizes are built when
 //! the exciter is set up. A full step that turns out to end in contact is taken
 //! back ([`ModalBank::undo_free_step`]) and redone in sub-steps; sub-stepping
-//! ends once no force has acted for [`StruckString::hold_samples`] samples.
+//! ends once no force has acted for 100 us (micro-gaps of a chattering stiff
+//! contact are shorter).
 //!
 //! Each (sub)step is one pass over the modes. The force of a step is found after
 //! that pass, so the bank keeps each step's state without the response to its
@@ -118,12 +119,14 @@ struct HammerDrive {
 
 struct TangentDrive {
     spec: TangentSpec,
+    /// exp(-t V0 / D) now, advanced by `decay_per_sample` each sample (zero once negligible).
+    remaining: f64,
+    decay_per_sample: f64,
     drive: DriveTable,
     /// Omitted modes' static share of the force at the tangent and at the bridge, per unit z''.
     residual_tangent_kg: f64,
     residual_bridge_kg: f64,
     acceleration_m_s2: f64,
-    time_s: f64,
 }
 
 struct PluckDrive {
@@ -169,11 +172,6 @@ impl StruckString {
 
     pub fn bank(&self) -> &ModalBank {
         &self.bank
-    }
-
-    /// Samples without force after which sub-stepping stops.
-    pub fn hold_samples(&self) -> usize {
-        self.hold_samples
     }
 
     /// Give the bank back its "force applied" form before the exciter changes.
@@ -240,11 +238,12 @@ impl StruckString {
         let (residual_tangent_kg, residual_bridge_kg) = residual::omitted_tangent_shares_kg(s);
         self.exciter = Exciter::Tangent(Box::new(TangentDrive {
             spec,
+            remaining: 1.0,
+            decay_per_sample: (-self.audio.step_s / spec.time_constant_s()).exp(),
             drive,
             residual_tangent_kg,
             residual_bridge_kg,
             acceleration_m_s2,
-            time_s: 0.0,
         }));
     }
 
@@ -276,7 +275,7 @@ impl StruckString {
             }
             Exciter::Tangent(d) => {
                 let a = d.acceleration_m_s2;
-                let z = d.spec.position_m(d.time_s);
+                let z = d.spec.displacement_m * (1.0 - d.remaining);
                 let line = self.string.tension_n * z / self.string.length_m;
                 Tick {
                     contact_force_n: self.bank.observe(&d.drive)
@@ -315,10 +314,11 @@ impl StruckString {
             Exciter::Tangent(d) => {
                 let (string, bank, step) = (&self.string, &mut self.bank, &self.audio);
                 let (end_hat, bridge_hat) = bank.step_driven(step, &d.drive, d.acceleration_m_s2);
-                d.time_s += step.step_s;
-                let a = if d.time_s < d.spec.settled_after_s() { d.spec.acceleration_m_s2(d.time_s) } else { 0.0 };
+                // Below 1e-17 the tangent has arrived: stop before denormals.
+                d.remaining = if d.remaining > 1e-17 { d.remaining * d.decay_per_sample } else { 0.0 };
+                let a = d.spec.acceleration_m_s2(0.0) * d.remaining;
                 d.acceleration_m_s2 = a;
-                let z = d.spec.position_m(d.time_s);
+                let z = d.spec.displacement_m * (1.0 - d.remaining);
                 let line = string.tension_n * z / string.length_m;
                 Tick {
                     contact_force_n: end_hat + (d.drive.observe_per_input + d.residual_tangent_kg) * a + line,

@@ -167,6 +167,10 @@ fn set_changes_a_field_before_the_case_is_checked() {
         "exciter={\"kind\":\"pluck\",\"displacement_m\":0.001,\"position\":0.2}",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
+    // The exciter really became a 1 mm pluck: no contact, released from 1 mm.
+    assert_eq!(read_json(&s.out().join("metrics.json"))["contact_count"], 0);
+    let y0 = Csv::read(&s.out().join("trace.csv")).numbers("string_position_m")[0];
+    assert!((y0 - 0.001).abs() < 0.0001, "{y0}");
 }
 
 #[test]

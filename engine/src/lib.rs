@@ -19,6 +19,13 @@
 //!    still yield statically ([`residual`]).
 //! 5. The output of a string is its bridge force, T y'(0) - EI y'''(0).
 //!
+//! 6. [`instrument`]: what every key of a piano, santoor, clavichord or
+//!    harpsichord is made of ([`instrument::KeyDesign`]), scaled by the player's voicing.
+//! 7. [`synth`]: the real-time instrument. Keys own their strings, exciter and
+//!    damper; [`synth::Synth::process`] plays events sample-accurately without
+//!    allocating, and a [`synth::Workshop`] thread rebuilds the tables when the
+//!    settings change and hands them over through lock-free queues.
+//!
 //! [`lab`] runs one strike case end to end (the `struck strike` command) and
 //! [`analysis`] measures the results. [`perf`] measures the modal bank's speed.
 //!
@@ -31,6 +38,7 @@ pub mod analysis;
 pub mod contact;
 pub mod damping;
 pub mod hammer;
+pub mod instrument;
 pub mod lab;
 pub mod modal_bank;
 pub mod perf;
@@ -38,4 +46,5 @@ pub mod pluck;
 pub mod residual;
 pub mod string;
 pub mod struck_string;
+pub mod synth;
 pub mod tangent;

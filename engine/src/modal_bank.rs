@@ -115,6 +115,18 @@ impl StepTable {
     pub fn pole(&self, index: usize) -> Complex64 {
         Complex64::new(self.pole_re[index], self.pole_im[index])
     }
+
+    /// Replace mode `index`'s pole by exp((-sigma + i omega) h): how a damper or a
+    /// pitch bend changes the free step. Only the free step uses the pole alone;
+    /// drive tables built from this table keep the coefficients they were built with.
+    ///
+    /// Allocates: no.
+    pub fn set_pole(&mut self, index: usize, decay_rate_s: f64, omega_rad_s: f64) {
+        let radius = (-decay_rate_s * self.step_s).exp();
+        let (sin, cos) = (omega_rad_s * self.step_s).sin_cos();
+        self.pole_re[index] = radius * cos;
+        self.pole_im[index] = radius * sin;
+    }
 }
 
 /// How an exciter's input is held over a step.
@@ -283,6 +295,33 @@ impl ModalBank {
             self.re[i] += drive.ramp_re[i] * input;
             self.im[i] += drive.ramp_im[i] * input;
         }
+    }
+
+    /// Take over another bank's motion mode by mode (as many modes as both have),
+    /// the rest at rest: how a ringing string survives a rebuild of its tables.
+    ///
+    /// Allocates: no.
+    pub fn copy_motion_from(&mut self, other: &ModalBank) {
+        let common = self.len.min(other.len);
+        for i in 0..common {
+            self.set_state(i, other.state(i));
+        }
+        self.re[common..].fill(0.0);
+        self.im[common..].fill(0.0);
+    }
+
+    /// An upper bound on the bridge force this bank can ever produce freely from
+    /// now on, N: sum_n |zeta_n| (free motion only shrinks each |zeta_n|).
+    pub fn amplitude_bound_n(&self) -> f64 {
+        let mut acc = [0.0; LANES];
+        let (re, _) = self.re.as_chunks::<LANES>();
+        let (im, _) = self.im.as_chunks::<LANES>();
+        for (r, i) in re.iter().zip(im) {
+            for l in 0..LANES {
+                acc[l] += r[l].abs() + i[l].abs();
+            }
+        }
+        lane_sum(&acc)
     }
 
     /// Kinetic plus potential energy of the modes, J.

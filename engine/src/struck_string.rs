@@ -99,11 +99,17 @@ impl Residual {
     }
 }
 
-struct HammerDrive {
-    hammer: Hammer,
+/// What a hammer at one strike point needs, for both step sizes.
+struct HammerTables {
+    position: f64,
     audio: DriveTable,
     sub: DriveTable,
     residual: Residual,
+}
+
+/// The moving hammer's state.
+struct HammerState {
+    hammer: Hammer,
     /// Displacement of the omitted modes at the strike point, m.
     residual_m: f64,
     /// Felt compression at the end of the last step, m.
@@ -117,30 +123,62 @@ struct HammerDrive {
     time_s: f64,
 }
 
-struct TangentDrive {
-    spec: TangentSpec,
-    /// exp(-t V0 / D) now, advanced by `decay_per_sample` each sample (zero once negligible).
-    remaining: f64,
-    decay_per_sample: f64,
+/// What a tangent at the string's far end needs.
+struct TangentTables {
+    gains: Vec<f64>,
     drive: DriveTable,
     /// Omitted modes' static share of the force at the tangent and at the bridge, per unit z''.
     residual_tangent_kg: f64,
     residual_bridge_kg: f64,
+}
+
+/// A tangent moving exponentially from `from_m` toward `to_m`:
+/// z = to + (from - to) r, r = exp(-t / tau), so z'' = (from - to) r / tau^2.
+#[derive(Clone, Copy)]
+struct TangentState {
+    from_m: f64,
+    to_m: f64,
+    time_constant_s: f64,
+    /// r now, advanced by `decay_per_sample` each sample (zero once negligible).
+    remaining: f64,
+    decay_per_sample: f64,
+    /// z'' held at the end of the last step (carried into the next pass), m/s^2.
     acceleration_m_s2: f64,
 }
 
-struct PluckDrive {
+impl TangentState {
+    fn position_m(&self) -> f64 {
+        self.to_m + (self.from_m - self.to_m) * self.remaining
+    }
+
+    fn velocity_m_s(&self) -> f64 {
+        -(self.from_m - self.to_m) * self.remaining / self.time_constant_s
+    }
+
+    fn acceleration_now_m_s2(&self) -> f64 {
+        (self.from_m - self.to_m) * self.remaining / (self.time_constant_s * self.time_constant_s)
+    }
+}
+
+/// What a plucking point needs.
+struct PluckTables {
+    position: f64,
     drive: DriveTable,
 }
 
+#[derive(Clone, Copy)]
 enum Exciter {
     None,
-    Hammer(Box<HammerDrive>),
-    Tangent(Box<TangentDrive>),
-    Pluck(Box<PluckDrive>),
+    Hammer,
+    Tangent,
+    Pluck,
 }
 
 /// A string with its modes, its exciter, and the coefficients for both step sizes.
+///
+/// The tables an exciter needs at a given point are built by the `prepare_*`
+/// methods (allocating); once prepared, striking, pressing and plucking there
+/// allocate nothing, so a key can be played from the audio thread.
 pub struct StruckString {
     string: StringModes,
     bank: ModalBank,
@@ -148,7 +186,12 @@ pub struct StruckString {
     sub: StepTable,
     substeps: usize,
     hold_samples: usize,
+    hammer_tables: Option<HammerTables>,
+    tangent_tables: Option<TangentTables>,
+    pluck_tables: Option<PluckTables>,
     exciter: Exciter,
+    hammer: HammerState,
+    tangent: TangentState,
 }
 
 impl StruckString {
@@ -163,7 +206,42 @@ impl StruckString {
         // Stay sub-stepped through force-free gaps up to 100 us: a stiff contact
         // chatters with micro-separations of tens of microseconds.
         let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
-        Self { string, bank, audio, sub, substeps, hold_samples, exciter: Exciter::None }
+        let idle_hammer = HammerSpec {
+            mass_kg: 1.0,
+            law: crate::contact::ContactLaw { stiffness: 1.0, exponent: 1.0 },
+            speed_m_s: 0.0,
+            position: 0.5,
+        };
+        Self {
+            string,
+            bank,
+            audio,
+            sub,
+            substeps,
+            hold_samples,
+            hammer_tables: None,
+            tangent_tables: None,
+            pluck_tables: None,
+            exciter: Exciter::None,
+            hammer: HammerState {
+                hammer: Hammer::thrown(idle_hammer, 0.0),
+                residual_m: 0.0,
+                compression_m: 0.0,
+                force_n: 0.0,
+                absorbed_j: 0.0,
+                substepping: false,
+                quiet_samples: 0,
+                time_s: 0.0,
+            },
+            tangent: TangentState {
+                from_m: 0.0,
+                to_m: 0.0,
+                time_constant_s: 1.0,
+                remaining: 0.0,
+                decay_per_sample: 0.0,
+                acceleration_m_s2: 0.0,
+            },
+        }
     }
 
     pub fn string(&self) -> &StringModes {
@@ -174,11 +252,24 @@ impl StruckString {
         &self.bank
     }
 
-    /// Give the bank back its "force applied" form before the exciter changes.
-    fn settle_exciter(&mut self) {
-        match &self.exciter {
-            Exciter::Hammer(d) if d.substepping => self.bank.apply_ramp(&d.sub, d.force_n),
-            Exciter::Tangent(d) => self.bank.apply_ramp(&d.drive, d.acceleration_m_s2),
+    pub fn sample_rate_hz(&self) -> f64 {
+        1.0 / self.audio.step_s
+    }
+
+    /// Give the bank back its "force applied" form and let the exciter go.
+    /// A tangent is dropped where it is (see [`Self::lift_tangent`] for a gentle release).
+    ///
+    /// Allocates: no.
+    pub fn release_exciter(&mut self) {
+        match self.exciter {
+            Exciter::Hammer if self.hammer.substepping => {
+                let tables = self.hammer_tables.as_ref().expect("a hammer in play has tables");
+                self.bank.apply_ramp(&tables.sub, self.hammer.force_n);
+            }
+            Exciter::Tangent => {
+                let tables = self.tangent_tables.as_ref().expect("a tangent in play has tables");
+                self.bank.apply_ramp(&tables.drive, self.tangent.acceleration_m_s2);
+            }
             _ => {}
         }
         self.exciter = Exciter::None;
@@ -196,20 +287,56 @@ impl StruckString {
         DriveTable::new(step, hold, self.bank.weights(), &gains, &observes)
     }
 
-    /// Throw a hammer at the string as it is now. Allocates (builds the drive tables).
-    pub fn strike(&mut self, spec: HammerSpec) {
-        self.settle_exciter();
+    /// Build the tables for a hammer striking at `position` (fraction of the length). Allocates.
+    pub fn prepare_hammer(&mut self, position: f64) {
+        if let Exciter::Hammer = self.exciter {
+            self.release_exciter();
+        }
         let s = &self.string;
-        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, spec.position)).collect();
+        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, position)).collect();
         let m = s.modal_mass_kg();
         let audio = self.drive_at(&self.audio, Hold::End, |i| shape[i] / m, |i| shape[i]);
         let sub = self.drive_at(&self.sub, Hold::End, |i| shape[i] / m, |i| shape[i]);
-        let touching_at_m = self.bank.observe(&audio);
-        self.exciter = Exciter::Hammer(Box::new(HammerDrive {
+        let residual = Residual::new(s, position, self.audio.step_s, self.substeps);
+        self.hammer_tables = Some(HammerTables { position, audio, sub, residual });
+    }
+
+    /// Build the tables for a tangent at the far end. Allocates.
+    pub fn prepare_tangent(&mut self) {
+        if let Exciter::Tangent = self.exciter {
+            self.release_exciter();
+        }
+        let s = &self.string;
+        let gains: Vec<f64> = s.modes.iter().map(|m| TangentSpec::modal_gain(m.number)).collect();
+        let weights = self.bank.weights().to_vec();
+        let sign = |i: usize| if s.modes[i].number.is_multiple_of(2) { 1.0 } else { -1.0 };
+        let drive = self.drive_at(&self.audio, Hold::Linear, |i| gains[i], |i| sign(i) * weights[i]);
+        let (residual_tangent_kg, residual_bridge_kg) = residual::omitted_tangent_shares_kg(s);
+        self.tangent_tables = Some(TangentTables { gains, drive, residual_tangent_kg, residual_bridge_kg });
+    }
+
+    /// Build the tables for plucking at `position`. Allocates.
+    pub fn prepare_pluck(&mut self, position: f64) {
+        if let Exciter::Pluck = self.exciter {
+            self.release_exciter();
+        }
+        let s = &self.string;
+        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, position)).collect();
+        let drive = self.drive_at(&self.audio, Hold::Linear, |_| 0.0, |i| shape[i]);
+        self.pluck_tables = Some(PluckTables { position, drive });
+    }
+
+    /// Throw a hammer at the string as it is now. Allocates only when the hammer
+    /// tables were not prepared for `spec.position`.
+    pub fn strike(&mut self, spec: HammerSpec) {
+        self.release_exciter();
+        if self.hammer_tables.as_ref().is_none_or(|t| t.position != spec.position) {
+            self.prepare_hammer(spec.position);
+        }
+        let tables = self.hammer_tables.as_ref().expect("prepared above");
+        let touching_at_m = self.bank.observe(&tables.audio);
+        self.hammer = HammerState {
             hammer: Hammer::thrown(spec, touching_at_m),
-            audio,
-            sub,
-            residual: Residual::new(s, spec.position, self.audio.step_s, self.substeps),
             residual_m: 0.0,
             compression_m: 0.0,
             force_n: 0.0,
@@ -217,81 +344,232 @@ impl StruckString {
             substepping: true,
             quiet_samples: 0,
             time_s: 0.0,
-        }));
+        };
+        self.exciter = Exciter::Hammer;
     }
 
-    /// Press a tangent into the string's far end (x = L), the string at rest there.
-    /// The tangent stays until another exciter replaces it; the string's end then
-    /// returns to rest at once (a key's release through the felt comes with the keys).
+    /// Press a tangent into the string's far end (x = L), lifting it toward
+    /// `spec.displacement_m` from wherever it is, meeting it at `spec.speed_m_s`.
+    /// The tangent stays until it is lifted or another exciter replaces it.
+    /// Allocates only when the tangent tables were not prepared.
     pub fn press_tangent(&mut self, spec: TangentSpec) {
-        self.settle_exciter();
-        let s = &self.string;
-        let gains: Vec<f64> = s.modes.iter().map(|m| TangentSpec::modal_gain(m.number)).collect();
-        let weights = self.bank.weights().to_vec();
-        let sign = |i: usize| if s.modes[i].number.is_multiple_of(2) { 1.0 } else { -1.0 };
-        let drive = self.drive_at(&self.audio, Hold::Linear, |i| gains[i], |i| sign(i) * weights[i]);
-        for (i, g) in gains.iter().enumerate() {
-            self.bank.add_velocity(i, g * spec.speed_m_s);
+        let from_m = self.tangent_position_m();
+        let rise_m = (spec.displacement_m - from_m).max(spec.displacement_m * 1e-3);
+        self.move_tangent(spec.displacement_m, rise_m / spec.speed_m_s);
+    }
+
+    /// Let the tangent fall back from the string over about `time_constant_s`:
+    /// the string's end follows it down to rest. Allocates: no.
+    pub fn lift_tangent(&mut self, time_constant_s: f64) {
+        if let Exciter::Tangent = self.exciter {
+            self.move_tangent(0.0, time_constant_s);
         }
-        let acceleration_m_s2 = spec.acceleration_m_s2(0.0);
-        self.bank.apply_ramp(&drive, -acceleration_m_s2);
-        let (residual_tangent_kg, residual_bridge_kg) = residual::omitted_tangent_shares_kg(s);
-        self.exciter = Exciter::Tangent(Box::new(TangentDrive {
-            spec,
+    }
+
+    /// Where the tangent holds the string's end now, m (0 without a tangent).
+    pub fn tangent_position_m(&self) -> f64 {
+        match self.exciter {
+            Exciter::Tangent => self.tangent.position_m(),
+            _ => 0.0,
+        }
+    }
+
+    fn move_tangent(&mut self, to_m: f64, time_constant_s: f64) {
+        let (from_m, old_velocity) = match self.exciter {
+            Exciter::Tangent => (self.tangent.position_m(), self.tangent.velocity_m_s()),
+            _ => (0.0, 0.0),
+        };
+        self.release_exciter();
+        if self.tangent_tables.is_none() {
+            self.prepare_tangent();
+        }
+        let tables = self.tangent_tables.as_ref().expect("prepared above");
+        let mut state = TangentState {
+            from_m,
+            to_m,
+            time_constant_s,
             remaining: 1.0,
-            decay_per_sample: (-self.audio.step_s / spec.time_constant_s()).exp(),
-            drive,
-            residual_tangent_kg,
-            residual_bridge_kg,
-            acceleration_m_s2,
-        }));
+            decay_per_sample: (-self.audio.step_s / time_constant_s).exp(),
+            acceleration_m_s2: 0.0,
+        };
+        // The end's velocity jumps to the new motion's: the modes (measured from
+        // the straight line through the moving end) take the opposite jump.
+        let jump = state.velocity_m_s() - old_velocity;
+        for (i, g) in tables.gains.iter().enumerate() {
+            self.bank.add_velocity(i, g * jump);
+        }
+        state.acceleration_m_s2 = state.acceleration_now_m_s2();
+        self.bank.apply_ramp(&tables.drive, -state.acceleration_m_s2);
+        self.tangent = state;
+        self.exciter = Exciter::Tangent;
     }
 
     /// Pull the string aside into a triangle and let go (adds to its present state).
+    /// Allocates only when the pluck tables were not prepared for `spec.position`.
     pub fn pluck(&mut self, spec: PluckSpec) {
-        self.settle_exciter();
-        let s = &self.string;
-        for (i, mode) in s.modes.iter().enumerate() {
+        self.release_exciter();
+        if self.pluck_tables.as_ref().is_none_or(|t| t.position != spec.position) {
+            self.prepare_pluck(spec.position);
+        }
+        for (i, mode) in self.string.modes.iter().enumerate() {
             self.bank.add_displacement(i, spec.modal_displacement_m(mode.number));
         }
-        let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, spec.position)).collect();
-        let drive = self.drive_at(&self.audio, Hold::Linear, |_| 0.0, |i| shape[i]);
-        self.exciter = Exciter::Pluck(Box::new(PluckDrive { drive }));
+        self.exciter = Exciter::Pluck;
+    }
+
+    /// Whether an exciter is acting or being observed (the string is not free).
+    pub fn is_free(&self) -> bool {
+        matches!(self.exciter, Exciter::None)
+    }
+
+    /// Whether a hammer is in play but has left the string: flying away, at
+    /// least `gap_m` below it, for at least `after_s` since the strike.
+    pub fn hammer_gone(&self, gap_m: f64, after_s: f64) -> bool {
+        let h = &self.hammer;
+        matches!(self.exciter, Exciter::Hammer)
+            && !h.substepping
+            && h.time_s >= after_s
+            && h.hammer.velocity_m_s < 0.0
+            && h.compression_m < -gap_m
+    }
+
+    /// Every mode to rest, the exciter gone. Allocates: no.
+    pub fn silence(&mut self) {
+        self.exciter = Exciter::None;
+        self.bank.clear();
+    }
+
+    /// Move the free step's poles: every mode's decay rate raised by
+    /// `extra_decay_s + extra_decay_per_hz_s * f_n` (a damper) and every frequency
+    /// scaled by `pitch_ratio` (a bend). Sub-steps keep the string's own poles.
+    ///
+    /// Allocates: no. One exp and one sin/cos per mode.
+    pub fn set_free_step(&mut self, extra_decay_s: f64, extra_decay_per_hz_s: f64, pitch_ratio: f64) {
+        for (i, mode) in self.string.modes.iter().enumerate() {
+            let sigma = mode.decay_rate_s() + extra_decay_s + extra_decay_per_hz_s * mode.frequency_hz();
+            self.audio.set_pole(i, sigma, pitch_ratio * mode.damped_omega_rad_s());
+        }
+    }
+
+    /// Take over `old`'s motion (a rebuild of this string's tables while it rings):
+    /// the modes it shares, and a pressed tangent. `old` lets go of its exciter.
+    ///
+    /// Allocates: no.
+    pub fn take_motion_from(&mut self, old: &mut StruckString) {
+        let tangent = match old.exciter {
+            Exciter::Tangent => Some(old.tangent),
+            _ => None,
+        };
+        old.release_exciter();
+        self.exciter = Exciter::None;
+        self.bank.copy_motion_from(&old.bank);
+        if let (Some(mut state), Some(tables)) = (tangent, self.tangent_tables.as_ref()) {
+            state.decay_per_sample = (-self.audio.step_s / state.time_constant_s).exp();
+            self.bank.apply_ramp(&tables.drive, -state.acceleration_m_s2);
+            self.tangent = state;
+            self.exciter = Exciter::Tangent;
+        }
+    }
+
+    /// An upper bound on the magnitude of the vibrating part of this string's
+    /// bridge force from now on, if left free, N (for deciding that a key has
+    /// fallen silent; a resting tangent's static lift is not vibration).
+    pub fn amplitude_bound_n(&self) -> f64 {
+        self.bank.amplitude_bound_n()
+    }
+
+    /// Whether nothing but free decay lies ahead: no exciter, or a tangent at rest.
+    pub fn is_settled(&self) -> bool {
+        match self.exciter {
+            Exciter::None => true,
+            Exciter::Tangent => self.tangent.remaining == 0.0,
+            _ => false,
+        }
+    }
+
+    /// The string's displacement at `points.len()` equally spaced points from the
+    /// bridge (x = 0) to the far end (x = L), the tangent's lift included, m.
+    ///
+    /// Allocates: no.
+    pub fn shape_m(&self, points: &mut [f32]) {
+        let count = points.len();
+        let end_m = self.tangent_position_m();
+        for (j, p) in points.iter_mut().enumerate() {
+            let x = if count > 1 { j as f64 / (count - 1) as f64 } else { 0.5 };
+            // sin(n theta) by the recurrence s_{n+1} = 2 cos(theta) s_n - s_{n-1}.
+            let theta = std::f64::consts::PI * x;
+            let two_cos = 2.0 * theta.cos();
+            let (mut s_prev, mut s_now) = (0.0, theta.sin());
+            let mut y = end_m * x;
+            for (i, mode) in self.string.modes.iter().enumerate() {
+                debug_assert_eq!(mode.number, i + 1);
+                y += self.bank.displacement(i) * s_now;
+                let next = two_cos * s_now - s_prev;
+                s_prev = s_now;
+                s_now = next;
+            }
+            *p = y as f32;
+        }
+    }
+
+    /// Advance `out.len()` samples while the string is free (or a tangent rests on
+    /// it), adding its bridge force to `out`. Returns false (doing nothing) when an
+    /// exciter is in play.
+    ///
+    /// Allocates: no.
+    pub fn process_free(&mut self, out: &mut [f64]) -> bool {
+        match self.exciter {
+            Exciter::None => self.bank.process_free(&self.audio, out),
+            // A tangent at rest only holds the end up: a free step plus its static lift.
+            Exciter::Tangent if self.tangent.remaining == 0.0 => {
+                self.bank.process_free(&self.audio, out);
+                let line = self.string.tension_n * self.tangent.to_m / self.string.length_m;
+                out.iter_mut().for_each(|o| *o += line);
+            }
+            _ => return false,
+        }
+        true
     }
 
     /// The present state, without stepping.
     pub fn current(&self) -> Tick {
         let bridge = self.bank.bridge_force_n();
-        match &self.exciter {
+        match self.exciter {
             Exciter::None => Tick { bridge_force_n: bridge, ..Tick::default() },
-            Exciter::Hammer(d) => {
-                let (drive, force) = if d.substepping { (&d.sub, d.force_n) } else { (&d.audio, 0.0) };
+            Exciter::Hammer => {
+                let d = &self.hammer;
+                let t = self.hammer_tables.as_ref().expect("a hammer in play has tables");
+                let (drive, force) = if d.substepping { (&t.sub, d.force_n) } else { (&t.audio, 0.0) };
                 Tick {
                     contact_force_n: d.hammer.spec.law.force_n(d.compression_m),
-                    bridge_force_n: bridge + drive.bridge_per_input * force + d.residual.bridge_force_n(d.residual_m),
+                    bridge_force_n: bridge + drive.bridge_per_input * force + t.residual.bridge_force_n(d.residual_m),
                     exciter_position_m: Some(d.hammer.position_m),
                     string_position_m: self.bank.observe(drive) + drive.observe_per_input * force + d.residual_m,
                 }
             }
-            Exciter::Tangent(d) => {
-                let a = d.acceleration_m_s2;
-                let z = d.spec.displacement_m * (1.0 - d.remaining);
+            Exciter::Tangent => {
+                let t = self.tangent_tables.as_ref().expect("a tangent in play has tables");
+                let a = self.tangent.acceleration_m_s2;
+                let z = self.tangent.position_m();
                 let line = self.string.tension_n * z / self.string.length_m;
                 Tick {
-                    contact_force_n: self.bank.observe(&d.drive)
-                        + (d.drive.observe_per_input + d.residual_tangent_kg) * a
+                    contact_force_n: self.bank.observe(&t.drive)
+                        + (t.drive.observe_per_input + t.residual_tangent_kg) * a
                         + line,
-                    bridge_force_n: bridge + (d.drive.bridge_per_input + d.residual_bridge_kg) * a + line,
+                    bridge_force_n: bridge + (t.drive.bridge_per_input + t.residual_bridge_kg) * a + line,
                     exciter_position_m: Some(z),
                     string_position_m: z,
                 }
             }
-            Exciter::Pluck(d) => Tick {
-                contact_force_n: 0.0,
-                bridge_force_n: bridge,
-                exciter_position_m: None,
-                string_position_m: self.bank.observe(&d.drive),
-            },
+            Exciter::Pluck => {
+                let t = self.pluck_tables.as_ref().expect("a pluck has tables");
+                Tick {
+                    contact_force_n: 0.0,
+                    bridge_force_n: bridge,
+                    exciter_position_m: None,
+                    string_position_m: self.bank.observe(&t.drive),
+                }
+            }
         }
     }
 
@@ -301,65 +579,81 @@ impl StruckString {
     }
 
     /// Advance one sample, telling `observer` about every (sub)step of a hammer.
+    ///
+    /// Allocates: no.
     pub fn tick_observed(&mut self, observer: &mut impl ContactObserver) -> Tick {
-        match &mut self.exciter {
+        match self.exciter {
             Exciter::None => {
                 let mut out = [0.0];
                 self.bank.process_free(&self.audio, &mut out);
                 Tick { bridge_force_n: out[0], ..Tick::default() }
             }
-            Exciter::Hammer(d) => {
-                Self::tick_hammer(&mut self.bank, &self.audio, &self.sub, self.substeps, self.hold_samples, d, observer)
+            Exciter::Hammer => {
+                let tables = self.hammer_tables.as_ref().expect("a hammer in play has tables");
+                Self::tick_hammer(
+                    &mut self.bank,
+                    &self.audio,
+                    &self.sub,
+                    self.substeps,
+                    self.hold_samples,
+                    tables,
+                    &mut self.hammer,
+                    observer,
+                )
             }
-            Exciter::Tangent(d) => {
-                let (string, bank, step) = (&self.string, &mut self.bank, &self.audio);
-                let (end_hat, bridge_hat) = bank.step_driven(step, &d.drive, d.acceleration_m_s2);
+            Exciter::Tangent => {
+                let t = self.tangent_tables.as_ref().expect("a tangent in play has tables");
+                let d = &mut self.tangent;
+                let (end_hat, bridge_hat) = self.bank.step_driven(&self.audio, &t.drive, d.acceleration_m_s2);
                 // Below 1e-17 the tangent has arrived: stop before denormals.
                 d.remaining = if d.remaining > 1e-17 { d.remaining * d.decay_per_sample } else { 0.0 };
-                let a = d.spec.acceleration_m_s2(0.0) * d.remaining;
+                let a = d.acceleration_now_m_s2();
                 d.acceleration_m_s2 = a;
-                let z = d.spec.displacement_m * (1.0 - d.remaining);
-                let line = string.tension_n * z / string.length_m;
+                let z = d.position_m();
+                let line = self.string.tension_n * z / self.string.length_m;
                 Tick {
-                    contact_force_n: end_hat + (d.drive.observe_per_input + d.residual_tangent_kg) * a + line,
-                    bridge_force_n: bridge_hat + (d.drive.bridge_per_input + d.residual_bridge_kg) * a + line,
+                    contact_force_n: end_hat + (t.drive.observe_per_input + t.residual_tangent_kg) * a + line,
+                    bridge_force_n: bridge_hat + (t.drive.bridge_per_input + t.residual_bridge_kg) * a + line,
                     exciter_position_m: Some(z),
                     string_position_m: z,
                 }
             }
-            Exciter::Pluck(d) => {
-                let (y, bridge) = self.bank.step_driven(&self.audio, &d.drive, 0.0);
+            Exciter::Pluck => {
+                let t = self.pluck_tables.as_ref().expect("a pluck has tables");
+                let (y, bridge) = self.bank.step_driven(&self.audio, &t.drive, 0.0);
                 Tick { contact_force_n: 0.0, bridge_force_n: bridge, exciter_position_m: None, string_position_m: y }
             }
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn tick_hammer(
         bank: &mut ModalBank,
         audio: &StepTable,
         sub: &StepTable,
         substeps: usize,
         hold_samples: usize,
-        d: &mut HammerDrive,
+        t: &HammerTables,
+        d: &mut HammerState,
         observer: &mut impl ContactObserver,
     ) -> Tick {
         if !d.substepping {
             // The force is zero: a free step, unless it ends in contact.
             let h = audio.step_s;
-            let (y_hat, bridge_hat) = bank.step_driven(audio, &d.audio, 0.0);
+            let (y_hat, bridge_hat) = bank.step_driven(audio, &t.audio, 0.0);
             let eta_hat = d.hammer.predict_m(h);
-            let residual_m = d.residual.relax_audio * d.residual_m;
+            let residual_m = t.residual.relax_audio * d.residual_m;
             let compression_m = eta_hat - y_hat - residual_m;
             if compression_m <= 0.0 {
                 d.hammer.commit(h, eta_hat, 0.0);
-                d.absorbed_j += d.residual.energy_j(d.residual_m) - d.residual.energy_j(residual_m);
+                d.absorbed_j += t.residual.energy_j(d.residual_m) - t.residual.energy_j(residual_m);
                 d.residual_m = residual_m;
                 d.compression_m = compression_m;
                 d.time_s += h;
                 observer.step(d.time_s, compression_m, 0.0);
                 return Tick {
                     contact_force_n: 0.0,
-                    bridge_force_n: bridge_hat + d.residual.bridge_force_n(residual_m),
+                    bridge_force_n: bridge_hat + t.residual.bridge_force_n(residual_m),
                     exciter_position_m: Some(eta_hat),
                     string_position_m: y_hat + residual_m,
                 };
@@ -370,22 +664,22 @@ impl StruckString {
             d.quiet_samples = 0;
         }
         let h = sub.step_s;
-        let relax = d.residual.relax_sub;
+        let relax = t.residual.relax_sub;
         let compliance =
-            d.hammer.compliance_m_n(h) + d.sub.observe_per_input + (1.0 - relax) * d.residual.compliance_m_n;
+            d.hammer.compliance_m_n(h) + t.sub.observe_per_input + (1.0 - relax) * t.residual.compliance_m_n;
         let mut any_force = false;
         let mut tick = Tick::default();
         for _ in 0..substeps {
-            let (y_hat, bridge_hat) = bank.step_driven(sub, &d.sub, d.force_n);
+            let (y_hat, bridge_hat) = bank.step_driven(sub, &t.sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
             let ContactStep { compression_m, step_force_n: force, .. } =
                 d.hammer.spec.law.solve(d.compression_m, c_hat, compliance);
             d.hammer.commit(h, eta_hat, force);
-            let residual_m = relax * d.residual_m + (1.0 - relax) * d.residual.compliance_m_n * force;
+            let residual_m = relax * d.residual_m + (1.0 - relax) * t.residual.compliance_m_n * force;
             // Work done on the residual, less what its spring now holds, went into its dashpot.
-            d.absorbed_j += force * (residual_m - d.residual_m) - d.residual.energy_j(residual_m)
-                + d.residual.energy_j(d.residual_m);
+            d.absorbed_j += force * (residual_m - d.residual_m) - t.residual.energy_j(residual_m)
+                + t.residual.energy_j(d.residual_m);
             d.residual_m = residual_m;
             d.compression_m = compression_m;
             d.force_n = force;
@@ -395,9 +689,9 @@ impl StruckString {
             observer.step(d.time_s, compression_m, felt_force_n);
             tick = Tick {
                 contact_force_n: felt_force_n,
-                bridge_force_n: bridge_hat + d.sub.bridge_per_input * force + d.residual.bridge_force_n(residual_m),
+                bridge_force_n: bridge_hat + t.sub.bridge_per_input * force + t.residual.bridge_force_n(residual_m),
                 exciter_position_m: Some(d.hammer.position_m),
-                string_position_m: y_hat + d.sub.observe_per_input * force + residual_m,
+                string_position_m: y_hat + t.sub.observe_per_input * force + residual_m,
             };
         }
         if any_force {
@@ -415,13 +709,13 @@ impl StruckString {
 
     /// Whether a hammer is in or near contact (the string is being sub-stepped).
     pub fn in_contact(&self) -> bool {
-        matches!(&self.exciter, Exciter::Hammer(d) if d.substepping)
+        matches!(self.exciter, Exciter::Hammer) && self.hammer.substepping
     }
 
     /// The hammer, if one is in play.
     pub fn hammer(&self) -> Option<&Hammer> {
-        match &self.exciter {
-            Exciter::Hammer(d) => Some(&d.hammer),
+        match self.exciter {
+            Exciter::Hammer => Some(&self.hammer.hammer),
             _ => None,
         }
     }
@@ -434,8 +728,8 @@ impl StruckString {
 
     /// Energy the omitted modes have taken from the present hammer's contacts, J.
     pub fn absorbed_by_omitted_modes_j(&self) -> f64 {
-        match &self.exciter {
-            Exciter::Hammer(d) => d.absorbed_j,
+        match self.exciter {
+            Exciter::Hammer => self.hammer.absorbed_j,
             _ => 0.0,
         }
     }

@@ -1,0 +1,423 @@
+//! What the four instrument designs share: interpolation through scaling tables,
+//! the voicing's scale factors, unison detuning, string losses, dampers and pan.
+//!
+//! String losses are set per mode (`Damping::PerModeQ`) from the physical model of
+//! [`crate::damping`] (air, internal friction, the bridge; for the clavichord also
+//! the leak past the tangent), with the voicing's `damping` factor multiplying
+//! every mode's total loss 1/Q. `Damping::Physical` could only scale the internal
+//! and bridge terms, not air drag, so the factor would not mean what it says.
+
+use std::f64::consts::PI;
+use std::ops::RangeInclusive;
+
+use super::{DamperDesign, Voicing, key_frequency_hz};
+use crate::contact::ContactLaw;
+use crate::damping::{Damping, LossModel, PhysicalLoss};
+use crate::string::{Mass, StringSpec};
+
+/// Compression at which a voiced exponent keeps the felt's force unchanged, m
+/// (a typical forte compression of a mid-range piano hammer; physics reference 1.5).
+pub(super) const REFERENCE_COMPRESSION_M: f64 = 0.5e-3;
+
+/// ln(1000): the decay exponent for 60 dB of amplitude.
+pub(super) const DECAY_60_DB: f64 = 6.907_755_278_982_137;
+
+/// Density of music-wire steel, kg/m^3.
+pub(super) const STEEL_DENSITY_KG_M3: f64 = 7850.0;
+/// Young's modulus of music-wire steel, Pa.
+pub(super) const STEEL_MODULUS_PA: f64 = 2.0e11;
+/// Density of (yellow or red) brass wire, kg/m^3 (physics reference 1.6).
+pub(super) const BRASS_DENSITY_KG_M3: f64 = 8500.0;
+/// Young's modulus of brass wire, Pa (physics reference 1.6).
+pub(super) const BRASS_MODULUS_PA: f64 = 1.0e11;
+
+/// A scaling table: values at some keys, read between them by interpolation in
+/// key number.
+pub(super) struct Table(pub &'static [(u8, f64)]);
+
+impl Table {
+    /// The segment holding `key` (the end segments reach beyond the table) and the
+    /// fraction along it.
+    fn segment(&self, key: u8) -> ((f64, f64), (f64, f64), f64) {
+        let points = self.0;
+        let i = points.iter().position(|&(k, _)| k >= key).unwrap_or(points.len() - 1).clamp(1, points.len() - 1);
+        let (k0, v0) = points[i - 1];
+        let (k1, v1) = points[i];
+        let t = (key as f64 - k0 as f64) / (k1 as f64 - k0 as f64);
+        ((k0 as f64, v0), (k1 as f64, v1), t)
+    }
+
+    /// Linear in key number, held at the end values beyond the table.
+    pub(super) fn linear(&self, key: u8) -> f64 {
+        let ((_, v0), (_, v1), t) = self.segment(key);
+        v0 + (v1 - v0) * t.clamp(0.0, 1.0)
+    }
+
+    /// Linear in key number, the end segments continued beyond the table.
+    pub(super) fn linear_extended(&self, key: u8) -> f64 {
+        let ((_, v0), (_, v1), t) = self.segment(key);
+        v0 + (v1 - v0) * t
+    }
+
+    /// Log-linear (a constant ratio per key), held at the end values beyond the table.
+    pub(super) fn log(&self, key: u8) -> f64 {
+        let ((_, v0), (_, v1), t) = self.segment(key);
+        v0 * (v1 / v0).powf(t.clamp(0.0, 1.0))
+    }
+
+    /// Log-linear, the end segments continued beyond the table.
+    pub(super) fn log_extended(&self, key: u8) -> f64 {
+        let ((_, v0), (_, v1), t) = self.segment(key);
+        v0 * (v1 / v0).powf(t)
+    }
+}
+
+/// The felt law with the voicing applied: K times `hammer_stiffness`, then alpha
+/// times `hammer_exponent` (clamped to 1..=6) with K rescaled so that the force at
+/// [`REFERENCE_COMPRESSION_M`] stays what it was (a changed exponent changes the
+/// felt's hardening, not its strength).
+pub(super) fn voiced_law(law: ContactLaw, voicing: &Voicing) -> ContactLaw {
+    let exponent = (law.exponent * voicing.hammer_exponent).clamp(1.0, 6.0);
+    let stiffness = law.stiffness * voicing.hammer_stiffness * REFERENCE_COMPRESSION_M.powf(law.exponent - exponent);
+    ContactLaw { stiffness, exponent }
+}
+
+/// A strike or pluck position with the voicing applied, kept within 0.02..=0.5.
+pub(super) fn voiced_position(position: f64, voicing: &Voicing) -> f64 {
+    (position * voicing.strike_position).clamp(0.02, 0.5)
+}
+
+/// Offsets in cents of the strings of a `strings`-string unison, the widest about
+/// `spread_cents` (times the voicing's `unison_detune`). Each key gets its own
+/// fixed scale of the pattern (0.8 to 1.2), as no two unisons are tuned alike.
+pub(super) fn unison_cents(midi_key: u8, strings: usize, spread_cents: f64, voicing: &Voicing) -> Vec<f64> {
+    let pattern: &[f64] = match strings {
+        0 | 1 => &[0.0],
+        2 => &[-0.6, 0.5],
+        3 => &[-1.0, 0.0, 0.8],
+        _ => &[-1.0, -0.35, 0.3, 0.9],
+    };
+    // A fixed scramble of the key number (Knuth's multiplicative hash) to 0..1.
+    let u = (((midi_key as u32).wrapping_mul(2_654_435_761) >> 16) & 0xffff) as f64 / 65_536.0;
+    let scale = spread_cents * voicing.unison_detune * (0.8 + 0.4 * u);
+    (0..strings.max(1)).map(|i| pattern[i.min(pattern.len() - 1)] * scale).collect()
+}
+
+/// The frequency of `midi_key` raised by `cents`, Hz.
+pub(super) fn detuned_hz(midi_key: u8, cents: f64) -> f64 {
+    key_frequency_hz(midi_key) * 2f64.powf(cents / 1200.0)
+}
+
+/// Stereo position by pitch: the lowest key at -0.6, the highest at +0.6.
+pub(super) fn pan(midi_key: u8, keys: RangeInclusive<u8>) -> f64 {
+    let (lo, hi) = (*keys.start() as f64, *keys.end() as f64);
+    0.6 * (2.0 * (midi_key as f64 - lo) / (hi - lo) - 1.0)
+}
+
+/// A damper whose felt makes a partial at `f1_hz` die by 60 dB in `decay_60_db_s`,
+/// and higher partials faster by `rate_per_hz_s` (felt absorbs short waves better).
+pub(super) fn damper(decay_60_db_s: f64, rate_per_hz_s: f64, f1_hz: f64, travel_s: f64) -> DamperDesign {
+    let rate_s = (DECAY_60_DB / decay_60_db_s - rate_per_hz_s * f1_hz).max(0.0);
+    DamperDesign { rate_s, rate_per_hz_s, travel_s }
+}
+
+/// Where an instrument's strings lose their energy (physics reference 1.4 and 1.7).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Losses {
+    /// eta_E of the wire.
+    pub internal_loss_factor: f64,
+    /// Re Y of the bridge, s/kg.
+    pub bridge_admittance_s_kg: f64,
+    /// A clavichord tangent that lets waves past it into the felted part.
+    pub tangent: Option<TangentLeak>,
+}
+
+/// The tangent, key and finger seen by one string: a mass on a dashpot (Euphonics
+/// 12.2.4). Waves it lets through are lost in the listing felt, which mostly damps
+/// the low partials (the mass reflects the high ones).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TangentLeak {
+    pub mass_kg: f64,
+    pub resistance_ns_m: f64,
+}
+
+impl TangentLeak {
+    /// Loss factor of a mode at `omega_rad_s` on a string of impedance `z0` and wave
+    /// speed `c` over `length_m`: the energy fraction lost per reflection,
+    /// 1 - |R|^2 = 4 Z0 (d + Z0) / ((d + 2 Z0)^2 + omega^2 M^2), once per round trip.
+    fn loss_factor(&self, z0: f64, c: f64, length_m: f64, omega_rad_s: f64) -> f64 {
+        let (d, m) = (self.resistance_ns_m, self.mass_kg);
+        let lost = 4.0 * z0 * (d + z0) / ((d + 2.0 * z0).powi(2) + (omega_rad_s * m).powi(2));
+        lost * c / (2.0 * length_m * omega_rad_s)
+    }
+}
+
+/// `spec` with its losses set mode by mode from `losses`, every mode's 1/Q times
+/// `factor`. Should the string not build (it will then be refused with the reason
+/// when the key is set up), the physical model is left in with internal and bridge
+/// losses scaled.
+pub(super) fn with_losses(mut spec: StringSpec, losses: &Losses, factor: f64) -> StringSpec {
+    let factor = factor.max(0.0);
+    spec.damping = Damping::UniformQ(1.0e3);
+    let Ok(string) = spec.build() else {
+        spec.damping = Damping::Physical(PhysicalLoss {
+            internal_loss_factor: losses.internal_loss_factor * factor,
+            bridge_admittance_s_kg: losses.bridge_admittance_s_kg * factor,
+        });
+        return spec;
+    };
+    let model = LossModel {
+        length_m: string.length_m,
+        tension_n: string.tension_n,
+        mass_per_length_kg_m: string.mass_per_length_kg_m,
+        inharmonicity: string.inharmonicity,
+        outer_diameter_m: spec.outer_diameter_m.or(match spec.mass {
+            Mass::SolidWire { diameter_m, .. } => Some(diameter_m),
+            Mass::PerLengthKgM(_) => None,
+        }),
+    };
+    let z0 = string.impedance_ns_m();
+    let c = (string.tension_n / string.mass_per_length_kg_m).sqrt();
+    let q = string
+        .modes
+        .iter()
+        .map(|mode| {
+            let n = mode.number;
+            let mut eta = model.air_loss_factor(mode.frequency_hz())
+                + model.internal_loss_factor(n, losses.internal_loss_factor)
+                + model.bridge_loss_factor(n, losses.bridge_admittance_s_kg);
+            if let Some(tangent) = losses.tangent {
+                eta += tangent.loss_factor(z0, c, string.length_m, mode.omega_rad_s);
+            }
+            1.0 / (factor * eta)
+        })
+        .collect();
+    spec.damping = Damping::PerModeQ(q);
+    spec
+}
+
+/// The peak bridge force of a course struck by a hammer of `mass_kg` at
+/// `speed_m_s` at `position` (a fraction of `length_m`), N, estimated from two
+/// limits added in quadrature: the wave the hammer launches toward the bridge,
+/// Z V (Z the course's impedance), and, for a hammer heavy against the string, the
+/// quasi-static push V sqrt(M k) (1 - beta) of a mass M on the string's static
+/// stiffness at the strike point, k = T / (beta (1 - beta) L), felt at the bridge
+/// through the lever 1 - beta (the treble "spike" of Euphonics 12.2). Against the
+/// engine it holds within about 1 dB over the piano and the santoor.
+pub(super) fn struck_peak_n(
+    course_impedance_ns_m: f64,
+    course_tension_n: f64,
+    length_m: f64,
+    position: f64,
+    mass_kg: f64,
+    speed_m_s: f64,
+) -> f64 {
+    let push = mass_kg * course_tension_n * (1.0 - position) / (position * length_m);
+    speed_m_s * (course_impedance_ns_m.powi(2) + push).sqrt()
+}
+
+/// Tension of a flexible string of `length_m` and `mass_per_length_kg_m` at `f_hz`,
+/// T = 4 L^2 mu f^2, N (bending stiffness raises the pitch by well under 1 %).
+pub(super) fn flexible_tension_n(length_m: f64, mass_per_length_kg_m: f64, f_hz: f64) -> f64 {
+    4.0 * length_m * length_m * mass_per_length_kg_m * f_hz * f_hz
+}
+
+/// Mass per length of a solid round wire, kg/m.
+pub(super) fn wire_mass_per_length_kg_m(diameter_m: f64, density_kg_m3: f64) -> f64 {
+    density_kg_m3 * PI * diameter_m * diameter_m / 4.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hammer::HammerSpec;
+    use crate::instrument::{ExciterDesign, InstrumentKind, KeyDesign, design};
+    use crate::pluck::PluckSpec;
+    use crate::string::Tuning;
+    use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+    use crate::tangent::TangentSpec;
+
+    const SAMPLE_RATE_HZ: f64 = 48_000.0;
+
+    /// Peak of the key's summed bridge force times its gain over `duration_s`,
+    /// played at `touch` (m/s, or mm for a pluck).
+    fn peak_output(key: &KeyDesign, touch: f64, duration_s: f64) -> f64 {
+        let n = key.strings.len() as f64;
+        let mut strings: Vec<StruckString> = key
+            .strings
+            .iter()
+            .map(|spec| {
+                let mut s = StruckString::new(spec.build().unwrap(), SAMPLE_RATE_HZ, DEFAULT_SUBSTEPS);
+                match key.exciter {
+                    ExciterDesign::Hammer { mass_kg, law, position } => s.strike(HammerSpec {
+                        mass_kg: mass_kg / n,
+                        law: ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent },
+                        speed_m_s: touch,
+                        position,
+                    }),
+                    ExciterDesign::Tangent { displacement_m } => {
+                        s.press_tangent(TangentSpec { speed_m_s: touch, displacement_m })
+                    }
+                    ExciterDesign::Pluck { position } => s.pluck(PluckSpec { displacement_m: touch * 1e-3, position }),
+                }
+                s
+            })
+            .collect();
+        let samples = (duration_s * SAMPLE_RATE_HZ) as usize;
+        let mut peak: f64 = 0.0;
+        for _ in 0..samples {
+            let sum: f64 = strings.iter_mut().map(|s| s.tick().bridge_force_n).sum();
+            peak = peak.max((sum * key.gain_per_n).abs());
+        }
+        peak
+    }
+
+    fn cents(ratio: f64) -> f64 {
+        1200.0 * ratio.log2()
+    }
+
+    #[test]
+    fn every_key_builds_in_tune_at_both_cut_offs() {
+        let voicing = Voicing::default();
+        for kind in InstrumentKind::ALL {
+            for key in kind.key_range() {
+                for max_frequency_hz in [9_900.0, 20_000.0] {
+                    let d = design(kind, &voicing, key, max_frequency_hz).unwrap();
+                    assert_eq!(d.midi_key, key);
+                    assert!((1..=4).contains(&d.strings.len()), "{kind} {key}");
+                    for spec in &d.strings {
+                        assert_eq!(spec.max_frequency_hz, max_frequency_hz);
+                        let string = spec.build().unwrap_or_else(|e| panic!("{kind} key {key}: {e}"));
+                        let f1 = string.partial_hz(1);
+                        assert!(f1 < max_frequency_hz);
+                        let off = cents(f1 / key_frequency_hz(key));
+                        assert!(off.abs() < 3.0, "{kind} key {key}: {off} cents");
+                        let Tuning::FirstPartialHz(target) = spec.tuning else {
+                            panic!("{kind} {key}: not tuned by pitch")
+                        };
+                        assert!((f1 / target - 1.0).abs() < 1e-9);
+                        assert!(matches!(spec.damping, Damping::PerModeQ(_)));
+                        assert!(string.modes.iter().all(|m| m.q > 50.0), "{kind} {key}: a mode with a low Q");
+                    }
+                    assert!(d.gain_per_n > 0.0 && d.gain_per_n.is_finite());
+                    assert!(d.pan.abs() <= 0.6 + 1e-12);
+                    let position = match d.exciter {
+                        ExciterDesign::Hammer { position, .. } | ExciterDesign::Pluck { position } => position,
+                        ExciterDesign::Tangent { displacement_m } => {
+                            assert!((0.5e-3..=2.5e-3).contains(&displacement_m));
+                            0.1
+                        }
+                    };
+                    assert!((0.02..=0.5).contains(&position), "{kind} {key}: {position}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn none_outside_the_key_range() {
+        for kind in InstrumentKind::ALL {
+            let range = kind.key_range();
+            assert!(design(kind, &Voicing::default(), range.start() - 1, 20_000.0).is_none());
+            assert!(design(kind, &Voicing::default(), range.end() + 1, 20_000.0).is_none());
+        }
+    }
+
+    #[test]
+    fn pan_runs_from_bass_left_to_treble_right() {
+        for kind in InstrumentKind::ALL {
+            let range = kind.key_range();
+            let pans: Vec<f64> =
+                range.clone().map(|k| design(kind, &Voicing::default(), k, 20_000.0).unwrap().pan).collect();
+            assert!((pans[0] + 0.6).abs() < 1e-12 && (pans[pans.len() - 1] - 0.6).abs() < 1e-12);
+            assert!(pans.windows(2).all(|w| w[1] > w[0]));
+        }
+    }
+
+    #[test]
+    fn loudest_touch_peaks_between_minus_20_and_minus_3_dbfs() {
+        let cases: [(InstrumentKind, &[u8]); 4] = [
+            (InstrumentKind::Piano, &[21, 36, 60, 84, 108]),
+            (InstrumentKind::Santoor, &[52, 69, 89]),
+            (InstrumentKind::Clavichord, &[36, 60, 88]),
+            (InstrumentKind::Harpsichord, &[36, 60, 86]),
+        ];
+        for (kind, keys) in cases {
+            let touch = kind.touch_range().max;
+            for &key in keys {
+                let d = design(kind, &Voicing::default(), key, 20_000.0).unwrap();
+                let peak_db = 20.0 * peak_output(&d, touch, 0.1).log10();
+                assert!((-20.0..=-3.0).contains(&peak_db), "{kind} key {key}: {peak_db:.1} dBFS");
+            }
+        }
+    }
+
+    #[test]
+    fn damping_factor_scales_every_mode_loss() {
+        for kind in InstrumentKind::ALL {
+            let key = (kind.key_range().start() + kind.key_range().end()) / 2;
+            let plain = design(kind, &Voicing::default(), key, 20_000.0).unwrap();
+            let voicing = Voicing { damping: 2.0, ..Voicing::default() };
+            let damped = design(kind, &voicing, key, 20_000.0).unwrap();
+            let a = plain.strings[0].build().unwrap();
+            let b = damped.strings[0].build().unwrap();
+            assert_eq!(a.modes.len(), b.modes.len());
+            for (m, n) in a.modes.iter().zip(&b.modes) {
+                assert!((m.q / n.q - 2.0).abs() < 1e-9, "{kind} mode {}", m.number);
+            }
+        }
+    }
+
+    #[test]
+    fn unison_detune_scales_the_spread() {
+        for kind in [InstrumentKind::Piano, InstrumentKind::Santoor, InstrumentKind::Clavichord] {
+            let key = *kind.key_range().end() - 2;
+            let pitch = |voicing: &Voicing| -> Vec<f64> {
+                design(kind, voicing, key, 20_000.0)
+                    .unwrap()
+                    .strings
+                    .iter()
+                    .map(|s| match s.tuning {
+                        Tuning::FirstPartialHz(f) => cents(f / key_frequency_hz(key)),
+                        Tuning::TensionN(_) => f64::NAN,
+                    })
+                    .collect()
+            };
+            let one = pitch(&Voicing::default());
+            let two = pitch(&Voicing { unison_detune: 2.0, ..Voicing::default() });
+            let zero = pitch(&Voicing { unison_detune: 0.0, ..Voicing::default() });
+            assert!(one.len() >= 2);
+            let spread = one.iter().cloned().fold(f64::MIN, f64::max) - one.iter().cloned().fold(f64::MAX, f64::min);
+            assert!(spread > 0.5, "{kind}: spread {spread} cents");
+            for ((a, b), z) in one.iter().zip(&two).zip(&zero) {
+                assert!((b - 2.0 * a).abs() < 1e-9 && z.abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn voiced_exponent_keeps_the_force_at_half_a_millimetre() {
+        let law = ContactLaw { stiffness: 4.5e9, exponent: 2.5 };
+        let voicing = Voicing { hammer_exponent: 1.2, hammer_stiffness: 3.0, ..Voicing::default() };
+        let v = voiced_law(law, &voicing);
+        assert!((v.exponent - 3.0).abs() < 1e-12);
+        let f = |l: ContactLaw| l.force_n(REFERENCE_COMPRESSION_M);
+        assert!((f(v) / (3.0 * f(law)) - 1.0).abs() < 1e-12);
+        let clamped = voiced_law(law, &Voicing { hammer_exponent: 10.0, ..Voicing::default() });
+        assert_eq!(clamped.exponent, 6.0);
+        assert_eq!(voiced_law(law, &Voicing { hammer_exponent: 0.1, ..Voicing::default() }).exponent, 1.0);
+    }
+
+    #[test]
+    fn tables_interpolate_and_extend() {
+        let t = Table(&[(24, 1.0), (36, 2.0), (48, 8.0)]);
+        assert_eq!(t.linear(30), 1.5);
+        assert_eq!(t.linear(12), 1.0);
+        assert_eq!(t.linear(60), 8.0);
+        assert!((t.log(30) - 2f64.sqrt()).abs() < 1e-12);
+        assert!((t.log_extended(12) - 0.5).abs() < 1e-12);
+        assert!((t.log_extended(60) - 32.0).abs() < 1e-12);
+        assert_eq!(t.linear_extended(12), 0.0);
+        assert_eq!(t.linear(36), 2.0);
+    }
+}

@@ -1,0 +1,493 @@
+//! The real-time instrument: keys, pedals and the audio-thread loop.
+//!
+//! An [`Instrument`] holds every key's precomputed tables and state; it is built
+//! off the audio thread ([`Instrument::build`], or by a [`Workshop`] thread
+//! whenever the settings change) and handed to the [`Synth`], which plays it.
+//! [`Synth::process`] never allocates, locks or waits.
+//!
+//! Keys, not notes (engine-numerics 5): a note-on strikes the key's strings in
+//! whatever state they are in. Processing is split at events and at every
+//! [`CONTROL_BLOCK`] samples of the synth's own clock, where dampers move,
+//! bends retune, silent keys stop and the live view is fed. The split points
+//! depend only on the events' times, so any host block size gives the same samples.
+
+pub mod event;
+mod key;
+pub mod scope;
+mod workshop;
+
+use serde::{Deserialize, Serialize};
+
+pub use event::{Event, TimedEvent};
+pub use scope::{Scope, ScopeFrame};
+pub use workshop::{Delivery, Workshop};
+
+use crate::instrument::{self, InstrumentKind, TouchRange, Voicing};
+use crate::string::StringError;
+use key::Key;
+use scope::ScopeWriter;
+
+/// Samples between control updates.
+pub const CONTROL_BLOCK: usize = 64;
+/// A key whose output can no longer exceed this (-120 dBFS) stops computing.
+pub const SILENCE: f64 = 1e-6;
+/// A stolen key fades out over this long, s.
+pub const STEAL_FADE_S: f64 = 0.005;
+/// Keys of an instrument being replaced by another fade out over this long, s.
+pub const SWITCH_FADE_S: f64 = 0.02;
+/// Highest mode frequency kept, Hz (lower at low sample rates: 0.45 fs).
+pub const MAX_MODE_FREQUENCY_HZ: f64 = 20_000.0;
+/// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
+const DC_BLOCK_HZ: f64 = 5.0;
+
+/// What an instrument's tables depend on. Changing any of these means a rebuild.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InstrumentSettings {
+    pub kind: InstrumentKind,
+    pub voicing: Voicing,
+    pub sample_rate_hz: f64,
+}
+
+/// Why an instrument could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("sample rate {0} Hz is outside 8000..=384000 Hz")]
+    SampleRate(f64),
+    #[error("{kind} key {key}: {source}")]
+    String { kind: InstrumentKind, key: u8, source: StringError },
+}
+
+/// Settings read once per block, needing no rebuild.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Controls {
+    /// Softest and hardest touch as fractions 0..=1 of the instrument's touch
+    /// range, on a logarithmic scale.
+    pub touch_min: f64,
+    pub touch_max: f64,
+    /// Velocity curve exponent: 1 linear (in log speed), above 1 needs a harder touch.
+    pub touch_shape: f64,
+    /// Most keys sounding at once.
+    pub polyphony: usize,
+    /// Linear output gain.
+    pub output_gain: f64,
+    /// Pitch-wheel range, semitones.
+    pub bend_range_semitones: f64,
+}
+
+impl Default for Controls {
+    fn default() -> Self {
+        Self {
+            touch_min: 0.0,
+            touch_max: 1.0,
+            touch_shape: 1.0,
+            polyphony: 64,
+            output_gain: 1.0,
+            bend_range_semitones: 2.0,
+        }
+    }
+}
+
+impl Controls {
+    /// Exciter speed (or pluck height) for a velocity in (0, 1].
+    pub fn touch(&self, range: TouchRange, velocity: f64) -> f64 {
+        let span = (range.max / range.min).ln();
+        let lo = self.touch_min.clamp(0.0, 1.0);
+        let hi = self.touch_max.clamp(0.0, 1.0);
+        let v = velocity.clamp(0.0, 1.0).powf(self.touch_shape.clamp(0.1, 10.0));
+        range.min * (span * (lo + (hi - lo) * v)).exp()
+    }
+}
+
+/// Every key of one instrument, built for one sample rate.
+pub struct Instrument {
+    settings: InstrumentSettings,
+    keys: Vec<Option<Key>>,
+    touch: TouchRange,
+}
+
+impl Instrument {
+    /// Build every key's tables. Allocates; takes tens of milliseconds.
+    pub fn build(settings: &InstrumentSettings) -> Result<Self, BuildError> {
+        let fs = settings.sample_rate_hz;
+        if !(8_000.0..=384_000.0).contains(&fs) {
+            return Err(BuildError::SampleRate(fs));
+        }
+        let max_frequency_hz = MAX_MODE_FREQUENCY_HZ.min(0.45 * fs);
+        let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
+        for midi_key in settings.kind.key_range() {
+            if let Some(design) = instrument::design(settings.kind, &settings.voicing, midi_key, max_frequency_hz) {
+                let key = Key::build(design, fs).map_err(|source| BuildError::String {
+                    kind: settings.kind,
+                    key: midi_key,
+                    source,
+                })?;
+                keys[midi_key as usize] = Some(key);
+            }
+        }
+        Ok(Self { settings: *settings, keys, touch: settings.kind.touch_range() })
+    }
+
+    pub fn settings(&self) -> &InstrumentSettings {
+        &self.settings
+    }
+
+    /// Total modes over all strings of all keys.
+    pub fn mode_count(&self) -> usize {
+        self.keys.iter().flatten().flat_map(|k| &k.strings).map(|s| s.bank().len()).sum()
+    }
+
+    fn active_keys(&self) -> impl Iterator<Item = &Key> {
+        self.keys.iter().flatten().filter(|k| k.active)
+    }
+}
+
+/// Events the synth reports back to the host: a key that has fallen silent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KeyEnded {
+    pub time: u32,
+    pub key: u8,
+}
+
+/// One-pole DC blocker.
+#[derive(Clone, Copy, Default)]
+struct DcBlock {
+    x1: f64,
+    y1: f64,
+}
+
+impl DcBlock {
+    #[inline]
+    fn run(&mut self, x: f64, r: f64) -> f64 {
+        let y = x - self.x1 + r * self.y1;
+        self.x1 = x;
+        self.y1 = y;
+        y
+    }
+}
+
+/// The player: takes events, writes audio. Built off the audio thread; then
+/// [`Synth::process`] is real-time safe.
+pub struct Synth {
+    current: Box<Instrument>,
+    /// An instrument of another kind fading out after a switch.
+    outgoing: Option<Box<Instrument>>,
+    /// Instruments replaced and waiting to be handed back for dropping elsewhere.
+    retired: [Option<Box<Instrument>>; 8],
+    controls: Controls,
+    sustain: f64,
+    sostenuto: bool,
+    una_corda: bool,
+    /// Pitch-wheel position -1..=1 and the frequency ratio it gives.
+    wheel: f64,
+    bend: f64,
+    clock: u64,
+    gain: f64,
+    dc: [DcBlock; 2],
+    dc_r: f64,
+    mono: [f64; CONTROL_BLOCK],
+    mix: [[f64; CONTROL_BLOCK]; 2],
+    ended: Vec<KeyEnded>,
+    scope: ScopeWriter,
+}
+
+impl Synth {
+    /// A synth playing `instrument`, and the reader of its live view. Allocates.
+    pub fn new(instrument: Box<Instrument>) -> (Self, Scope) {
+        let (scope, reader) = scope::channel();
+        let fs = instrument.settings.sample_rate_hz;
+        let synth = Self {
+            current: instrument,
+            outgoing: None,
+            retired: Default::default(),
+            controls: Controls::default(),
+            sustain: 0.0,
+            sostenuto: false,
+            una_corda: false,
+            wheel: 0.0,
+            bend: 1.0,
+            clock: 0,
+            gain: 1.0,
+            dc: [DcBlock::default(); 2],
+            dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
+            mono: [0.0; CONTROL_BLOCK],
+            mix: [[0.0; CONTROL_BLOCK]; 2],
+            ended: Vec::with_capacity(1024),
+            scope,
+        };
+        (synth, reader)
+    }
+
+    pub fn settings(&self) -> &InstrumentSettings {
+        &self.current.settings
+    }
+
+    pub fn controls(&self) -> &Controls {
+        &self.controls
+    }
+
+    /// Set the per-block controls (real-time safe).
+    pub fn set_controls(&mut self, controls: Controls) {
+        self.controls = controls;
+        self.bend = self.bend_ratio();
+    }
+
+    fn bend_ratio(&self) -> f64 {
+        2f64.powf(self.wheel * self.controls.bend_range_semitones / 12.0)
+    }
+
+    /// Keys sounding now (the outgoing instrument's included).
+    pub fn active_keys(&self) -> usize {
+        self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
+    }
+
+    /// Keys that fell silent during the last [`Self::process`] call.
+    pub fn ended_keys(&self) -> &[KeyEnded] {
+        &self.ended
+    }
+
+    /// Play `instrument` from now on. Of the same kind, ringing keys carry over
+    /// into the new tables; of another kind, the old one fades out. Real-time safe:
+    /// the replaced instrument waits in [`Self::take_retired`].
+    pub fn install(&mut self, mut instrument: Box<Instrument>) {
+        let bend = self.bend;
+        if instrument.settings.kind == self.current.settings.kind {
+            for (new, old) in instrument.keys.iter_mut().zip(self.current.keys.iter_mut()) {
+                if let (Some(new), Some(old)) = (new, old)
+                    && old.active
+                {
+                    new.take_over(old, bend);
+                }
+            }
+            let old = std::mem::replace(&mut self.current, instrument);
+            self.retire(old);
+        } else {
+            let mut old = std::mem::replace(&mut self.current, instrument);
+            let fs = old.settings.sample_rate_hz;
+            for key in old.keys.iter_mut().flatten().filter(|k| k.active) {
+                key.fade_step = -1.0 / (SWITCH_FADE_S * fs);
+            }
+            if let Some(previous) = self.outgoing.replace(old) {
+                self.retire(previous);
+            }
+        }
+        let fs = self.current.settings.sample_rate_hz;
+        self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp();
+    }
+
+    fn retire(&mut self, instrument: Box<Instrument>) {
+        if let Some(slot) = self.retired.iter_mut().find(|s| s.is_none()) {
+            *slot = Some(instrument);
+        } else {
+            // Never expected (the workshop drains every few milliseconds). Dropping
+            // here would free memory on the audio thread: the oldest is leaked instead.
+            let oldest = self.retired[0].replace(instrument);
+            std::mem::forget(oldest);
+        }
+    }
+
+    /// A replaced instrument to be dropped off the audio thread.
+    pub fn take_retired(&mut self) -> Option<Box<Instrument>> {
+        self.retired.iter_mut().find_map(|s| s.take())
+    }
+
+    /// Put back one that could not be handed on yet.
+    pub fn keep_retired(&mut self, instrument: Box<Instrument>) {
+        self.retire(instrument);
+    }
+
+    /// Render `left.len()` samples (`right` the same length), applying `events`
+    /// (sorted by time) at their sample positions. Real-time safe.
+    pub fn process(&mut self, events: &[TimedEvent], left: &mut [f32], right: &mut [f32]) {
+        debug_assert_eq!(left.len(), right.len());
+        let n = left.len().min(right.len());
+        self.ended.clear();
+        let mut pos = 0;
+        let mut next_event = 0;
+        while pos < n {
+            while next_event < events.len() && (events[next_event].time as usize) <= pos {
+                self.handle(events[next_event].event, pos as u32);
+                next_event += 1;
+            }
+            let phase = (self.clock % CONTROL_BLOCK as u64) as usize;
+            if phase == 0 {
+                self.control(pos as u32);
+            }
+            let until_event = events.get(next_event).map_or(n, |e| (e.time as usize).min(n));
+            let len = (n - pos).min(CONTROL_BLOCK - phase).min(until_event - pos);
+            self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
+            pos += len;
+            self.clock += len as u64;
+        }
+        // Events stamped past the block's end still happen, at its end.
+        for e in &events[next_event..] {
+            self.handle(e.event, n as u32);
+        }
+    }
+
+    fn handle(&mut self, event: Event, time: u32) {
+        match event {
+            Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key),
+            Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
+            Event::NoteOff { key } => self.note_off(key),
+            Event::Sustain(v) => self.sustain = (v as f64).clamp(0.0, 1.0),
+            Event::Sostenuto(v) => {
+                let down = v >= 0.5;
+                if down && !self.sostenuto {
+                    for k in self.current.keys.iter_mut().flatten() {
+                        k.sostenuto = k.active && k.down;
+                    }
+                } else if !down {
+                    for k in self.current.keys.iter_mut().flatten() {
+                        k.sostenuto = false;
+                    }
+                }
+                self.sostenuto = down;
+            }
+            Event::UnaCorda(v) => self.una_corda = v >= 0.5,
+            Event::PitchBend(v) => {
+                self.wheel = (v as f64).clamp(-1.0, 1.0);
+                self.bend = self.bend_ratio();
+            }
+            Event::AllNotesOff => {
+                for k in self.current.keys.iter_mut().flatten().filter(|k| k.down) {
+                    k.release();
+                }
+            }
+            Event::Reset => {
+                let fs = self.current.settings.sample_rate_hz;
+                for k in self.current.keys.iter_mut().flatten().filter(|k| k.active) {
+                    k.release();
+                    k.fade_step = -1.0 / (STEAL_FADE_S * fs);
+                }
+                self.sustain = 0.0;
+                self.sostenuto = false;
+                self.una_corda = false;
+                self.wheel = 0.0;
+                self.bend = 1.0;
+            }
+        }
+        let _ = time;
+    }
+
+    fn note_on(&mut self, midi_key: u8, velocity: f64) {
+        let index = midi_key as usize;
+        if index >= 128 || self.current.keys[index].is_none() {
+            return;
+        }
+        let was_active = self.current.keys[index].as_ref().is_some_and(|k| k.active);
+        if !was_active {
+            self.make_room();
+        }
+        let touch = self.controls.touch(self.current.touch, velocity);
+        let (una_corda, bend) = (self.una_corda, self.bend);
+        let key = self.current.keys[index].as_mut().expect("checked above");
+        key.press(touch, una_corda, bend);
+        self.scope.struck(midi_key);
+    }
+
+    fn note_off(&mut self, midi_key: u8) {
+        if let Some(Some(key)) = self.current.keys.get_mut(midi_key as usize)
+            && key.down
+        {
+            key.release();
+        }
+    }
+
+    /// Below the polyphony cap, or steal: the quietest released key first, else the quietest.
+    fn make_room(&mut self) {
+        let playing = self.current.active_keys().filter(|k| k.fade_step >= 0.0).count();
+        if playing < self.controls.polyphony.max(1) {
+            return;
+        }
+        let fs = self.current.settings.sample_rate_hz;
+        let victim = self
+            .current
+            .keys
+            .iter_mut()
+            .flatten()
+            .filter(|k| k.active && k.fade_step >= 0.0)
+            .min_by(|a, b| (a.down, a.level).partial_cmp(&(b.down, b.level)).unwrap_or(std::cmp::Ordering::Equal));
+        if let Some(k) = victim {
+            k.fade_step = -1.0 / (STEAL_FADE_S * fs);
+        }
+    }
+
+    fn control(&mut self, time: u32) {
+        let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
+        let (sustain, bend) = (self.sustain, self.bend);
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
+                if key.control(block_s, sustain, bend, SILENCE) && self.ended.len() < self.ended.capacity() {
+                    self.ended.push(KeyEnded { time, key: key.midi_key });
+                }
+            }
+        }
+        if self.outgoing.as_ref().is_some_and(|o| o.active_keys().next().is_none()) {
+            let old = self.outgoing.take().expect("checked above");
+            self.retire(old);
+        }
+        if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {
+            self.scope.control(key.midi_key, &key.strings[0]);
+        }
+    }
+
+    fn render(&mut self, left: &mut [f32], right: &mut [f32]) {
+        let n = left.len();
+        let [mix_l, mix_r] = &mut self.mix;
+        mix_l[..n].fill(0.0);
+        mix_r[..n].fill(0.0);
+        let scope_key = self.scope.key();
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
+                let mono = &mut self.mono[..n];
+                mono.fill(0.0);
+                let contact = if scope_key == Some(key.midi_key) { self.scope.contact_slots(n) } else { None };
+                key.render(mono, contact);
+                for t in 0..n {
+                    let v = mono[t] * key.gain_per_n * key.fade;
+                    mix_l[t] += v * key.pan_left;
+                    mix_r[t] += v * key.pan_right;
+                    if key.fade_step != 0.0 {
+                        key.fade = (key.fade + key.fade_step).clamp(0.0, 1.0);
+                        if key.fade >= 1.0 && key.fade_step > 0.0 {
+                            key.fade_step = 0.0;
+                        }
+                    }
+                }
+                if key.fade <= 0.0 && key.fade_step < 0.0 {
+                    // Faded out: silent from the next sample; reported at the next control tick.
+                    key.fade_step = 0.0;
+                    key.fade = 0.0;
+                }
+            }
+        }
+        // The output gain glides (about 10 ms) so automation does not click.
+        let glide = 1.0 - (-1.0 / (0.01 * self.current.settings.sample_rate_hz)).exp();
+        let r = self.dc_r;
+        for t in 0..n {
+            self.gain += (self.controls.output_gain - self.gain) * glide;
+            let l = self.dc[0].run(mix_l[t], r) * self.gain;
+            let rr = self.dc[1].run(mix_r[t], r) * self.gain;
+            left[t] = l as f32;
+            right[t] = rr as f32;
+            self.scope.sample(0.5 * (l + rr) as f32);
+        }
+    }
+
+    /// The instrument's key range and whether a key exists (for hosts' voice info).
+    pub fn has_key(&self, midi_key: u8) -> bool {
+        self.current.keys.get(midi_key as usize).is_some_and(|k| k.is_some())
+    }
+
+    /// A key's exciter speed for `velocity` under the present controls, m/s
+    /// (pluck height in mm for a harpsichord).
+    pub fn touch_for(&self, velocity: f64) -> f64 {
+        self.controls.touch(self.current.touch, velocity)
+    }
+}
+
+/// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built.
+pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> InstrumentSettings {
+    InstrumentSettings { kind, voicing: Voicing::default(), sample_rate_hz }
+}

@@ -1,0 +1,268 @@
+//! The real-time synth: keys, pedals, stealing, block-size independence, rebuilds.
+
+use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::synth::{
+    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop, default_settings,
+};
+
+const FS: f64 = 48_000.0;
+
+fn synth(kind: InstrumentKind) -> Synth {
+    Synth::new(Box::new(Instrument::build(&default_settings(kind, FS)).unwrap())).0
+}
+
+/// Render `seconds` with events given as (time in s, event), in host blocks of `block`.
+fn render(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize) -> Vec<f32> {
+    let total = (seconds * FS) as usize;
+    let mut timed: Vec<(usize, Event)> = events.iter().map(|&(t, e)| ((t * FS).round() as usize, e)).collect();
+    timed.sort_by_key(|e| e.0);
+    let (mut left, mut right) = (vec![0.0f32; total], vec![0.0f32; total]);
+    let mut start = 0;
+    let mut block_events = Vec::new();
+    while start < total {
+        let end = (start + block).min(total);
+        block_events.clear();
+        block_events.extend(
+            timed.iter().filter(|e| e.0 >= start && e.0 < end).map(|e| TimedEvent::new((e.0 - start) as u32, e.1)),
+        );
+        synth.process(&block_events, &mut left[start..end], &mut right[start..end]);
+        start = end;
+    }
+    left.iter().zip(&right).map(|(l, r)| 0.5 * (l + r)).collect()
+}
+
+fn rms(x: &[f32]) -> f64 {
+    (x.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+fn window(x: &[f32], from_s: f64, to_s: f64) -> &[f32] {
+    &x[(from_s * FS) as usize..(to_s * FS) as usize]
+}
+
+/// Frequency of the strongest spectral peak near `guess_hz` (DTFT scan).
+fn peak_near(x: &[f32], guess_hz: f64) -> f64 {
+    peak_near_at(x, guess_hz, FS)
+}
+
+fn peak_near_at(x: &[f32], guess_hz: f64, fs: f64) -> f64 {
+    let mut best = (0.0, guess_hz);
+    let n = x.len() as f64;
+    for i in -400..=400 {
+        let f = guess_hz * 2f64.powf(i as f64 / 1200.0 * 0.25);
+        let (mut re, mut im) = (0.0, 0.0);
+        for (k, v) in x.iter().enumerate() {
+            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n).cos();
+            let ph = 2.0 * std::f64::consts::PI * f * k as f64 / fs;
+            re += w * *v as f64 * ph.cos();
+            im += w * *v as f64 * ph.sin();
+        }
+        let m = re * re + im * im;
+        if m > best.0 {
+            best = (m, f);
+        }
+    }
+    best.1
+}
+
+fn cents(a: f64, b: f64) -> f64 {
+    1200.0 * (a / b).log2()
+}
+
+#[test]
+fn every_instrument_sounds_its_key_in_tune_after_silence() {
+    for kind in InstrumentKind::ALL {
+        let key = 69; // A4 is on every instrument
+        let mut s = synth(kind);
+        let out = render(&mut s, 1.0, &[(0.2, Event::NoteOn { key, velocity: 0.8 })], 256);
+        assert_eq!(rms(window(&out, 0.0, 0.2)), 0.0, "{kind}: sound before the note");
+        let ring = window(&out, 0.4, 0.9);
+        assert!(rms(ring) > 1e-3, "{kind}: too quiet ({})", rms(ring));
+        assert!(out.iter().all(|v| v.is_finite() && v.abs() < 1.0), "{kind}: not finite or clipping");
+        let f = peak_near(ring, 440.0);
+        assert!(cents(f, 440.0).abs() < 15.0, "{kind}: {f} Hz");
+    }
+}
+
+fn session() -> Vec<(f64, Event)> {
+    vec![
+        (0.010, Event::NoteOn { key: 60, velocity: 0.5 }),
+        (0.0101, Event::NoteOn { key: 64, velocity: 0.9 }),
+        (0.05, Event::Sustain(1.0)),
+        (0.13, Event::NoteOff { key: 60 }),
+        (0.2, Event::PitchBend(0.3)),
+        (0.21, Event::NoteOn { key: 60, velocity: 1.0 }),
+        (0.25, Event::NoteOff { key: 64 }),
+        (0.3, Event::Sustain(0.4)),
+        (0.31, Event::UnaCorda(1.0)),
+        (0.33, Event::NoteOn { key: 72, velocity: 0.3 }),
+        (0.38, Event::Sostenuto(1.0)),
+        (0.4, Event::NoteOff { key: 72 }),
+        (0.41, Event::Sustain(0.0)),
+        (0.45, Event::AllNotesOff),
+    ]
+}
+
+#[test]
+fn any_block_size_gives_the_same_samples() {
+    let reference = render(&mut synth(InstrumentKind::Piano), 0.5, &session(), 64);
+    for block in [1, 7, 4096, 8192] {
+        let out = render(&mut synth(InstrumentKind::Piano), 0.5, &session(), block);
+        assert!(out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits()), "block {block} differs");
+    }
+}
+
+#[test]
+fn restriking_a_ringing_key_continues_without_a_click() {
+    let mut s = synth(InstrumentKind::Piano);
+    let out = render(
+        &mut s,
+        0.6,
+        &[(0.0, Event::NoteOn { key: 57, velocity: 0.7 }), (0.3, Event::NoteOn { key: 57, velocity: 0.7 })],
+        128,
+    );
+    // The sample-to-sample step around the re-strike is no larger than the ringing's own.
+    let i = (0.3 * FS) as usize;
+    let steps = |a: usize, b: usize| out[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
+    assert!(steps(i - 2, i + 2) <= 1.5 * steps(i - 200, i - 2), "a jump at the re-strike");
+    assert_eq!(s.active_keys(), 1);
+}
+
+#[test]
+fn dampers_pedals_and_half_pedal() {
+    let level_after_release = |extra: &[(f64, Event)]| {
+        let mut events = vec![(0.0, Event::NoteOn { key: 48, velocity: 0.8 }), (0.3, Event::NoteOff { key: 48 })];
+        events.extend_from_slice(extra);
+        let out = render(&mut synth(InstrumentKind::Piano), 1.2, &events, 512);
+        rms(window(&out, 0.9, 1.2)) / rms(window(&out, 0.2, 0.3))
+    };
+    let damped = level_after_release(&[]);
+    let half = level_after_release(&[(0.1, Event::Sustain(0.5))]);
+    let held = level_after_release(&[(0.1, Event::Sustain(1.0))]);
+    assert!(damped < 0.01, "the damper should silence the key: {damped}");
+    assert!(held > 0.3, "the pedal should hold the key: {held}");
+    assert!(damped < half && half < held, "half-pedal between: {damped} {half} {held}");
+    // Re-pedalling: the pedal pressed again while the strings still ring keeps them ringing.
+    let repedal = level_after_release(&[(0.305, Event::Sustain(1.0))]);
+    assert!(repedal > 10.0 * damped, "re-pedal {repedal} vs {damped}");
+    // Sostenuto holds the keys that were down when it was pressed, and not others.
+    let sost = level_after_release(&[(0.1, Event::Sostenuto(1.0))]);
+    assert!(sost > 0.3, "sostenuto should hold: {sost}");
+    let late = level_after_release(&[(0.35, Event::Sostenuto(1.0))]);
+    assert!(late < 0.01, "sostenuto pressed after the release must not hold: {late}");
+}
+
+#[test]
+fn santoor_courses_ring_on_after_key_up() {
+    let events = [(0.0, Event::NoteOn { key: 62, velocity: 0.8 }), (0.1, Event::NoteOff { key: 62 })];
+    let out = render(&mut synth(InstrumentKind::Santoor), 1.0, &events, 512);
+    assert!(rms(window(&out, 0.8, 1.0)) > 0.2 * rms(window(&out, 0.05, 0.1)), "no dampers on a santoor");
+}
+
+#[test]
+fn polyphony_steals_the_quietest_released_key() {
+    let mut s = synth(InstrumentKind::Santoor);
+    s.set_controls(Controls { polyphony: 2, ..Controls::default() });
+    let events = [
+        (0.0, Event::NoteOn { key: 60, velocity: 1.0 }),
+        (0.01, Event::NoteOn { key: 64, velocity: 0.2 }),
+        (0.02, Event::NoteOff { key: 64 }),
+        (0.1, Event::NoteOn { key: 67, velocity: 0.8 }),
+    ];
+    render(&mut s, 0.2, &events, 64);
+    assert_eq!(s.active_keys(), 2);
+    // Key 64 (released, quietest) was the one to go: playing it again is what wakes a third key.
+    render(&mut s, 0.01, &[], 64);
+}
+
+#[test]
+fn silent_keys_stop_and_are_reported() {
+    let mut s = synth(InstrumentKind::Harpsichord);
+    let events = [(0.0, Event::NoteOn { key: 84, velocity: 1.0 }), (0.05, Event::NoteOff { key: 84 })];
+    let mut ended = Vec::new();
+    let total = (3.0 * FS) as usize;
+    let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+    for b in 0..total / 512 {
+        let evs: Vec<TimedEvent> = events
+            .iter()
+            .map(|&(t, e)| ((t * FS) as usize, e))
+            .filter(|(t, _)| *t >= b * 512 && *t < (b + 1) * 512)
+            .map(|(t, e)| TimedEvent::new((t - b * 512) as u32, e))
+            .collect();
+        s.process(&evs, &mut l, &mut r);
+        ended.extend(s.ended_keys().iter().map(|e| e.key));
+    }
+    assert_eq!(s.active_keys(), 0);
+    assert_eq!(ended, vec![84]);
+}
+
+#[test]
+fn velocity_curve_maps_the_touch_range() {
+    let c = Controls::default();
+    let range = InstrumentKind::Piano.touch_range();
+    assert!((c.touch(range, 1.0) - range.max).abs() < 1e-9);
+    assert!((c.touch(range, 0.0) - range.min).abs() < 1e-9);
+    let hard = Controls { touch_shape: 2.0, ..c };
+    assert!(hard.touch(range, 0.5) < c.touch(range, 0.5));
+    let narrow = Controls { touch_min: 0.5, touch_max: 0.5, ..c };
+    assert!((narrow.touch(range, 0.1) - narrow.touch(range, 0.9)).abs() < 1e-12);
+}
+
+#[test]
+fn a_rebuild_of_the_same_instrument_keeps_keys_ringing() {
+    let settings = default_settings(InstrumentKind::Piano, FS);
+    let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+    let before = render(&mut s, 0.3, &[(0.0, Event::NoteOn { key: 60, velocity: 0.8 })], 256);
+    let damper = InstrumentSettings { voicing: Voicing { damping: 2.0, ..Voicing::default() }, ..settings };
+    s.install(Box::new(Instrument::build(&damper).unwrap()));
+    assert!(s.take_retired().is_some(), "the old tables come back to be dropped elsewhere");
+    let after = render(&mut s, 0.3, &[], 256);
+    assert_eq!(s.active_keys(), 1);
+    let edge = (before[before.len() - 1] - after[0]).abs();
+    assert!(edge < 0.2 * rms(window(&before, 0.2, 0.3)) as f32 * 4.0, "a jump at the rebuild: {edge}");
+    assert!(rms(&after[..4800]) > 0.5 * rms(window(&before, 0.25, 0.3)));
+    // Another instrument: the piano fades out and is handed back.
+    s.install(Box::new(Instrument::build(&default_settings(InstrumentKind::Santoor, FS)).unwrap()));
+    render(&mut s, 0.05, &[], 256);
+    assert_eq!(s.active_keys(), 0);
+    assert!(s.take_retired().is_some());
+}
+
+#[test]
+fn the_workshop_builds_off_the_audio_thread_and_delivers() {
+    let settings = default_settings(InstrumentKind::Clavichord, FS);
+    let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+    let wanted = InstrumentSettings { kind: InstrumentKind::Harpsichord, ..settings };
+    let (workshop, mut delivery): (Workshop, Delivery) = Workshop::spawn(settings, move || Some(wanted));
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while s.settings().kind != InstrumentKind::Harpsichord {
+        assert!(std::time::Instant::now() < deadline, "no delivery");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        delivery.exchange(&mut s);
+    }
+    render(&mut s, 0.05, &[], 256);
+    delivery.exchange(&mut s);
+    assert!(s.take_retired().is_none(), "the replaced instrument went back to the workshop");
+    drop(workshop);
+}
+
+#[test]
+fn any_sample_rate_gives_the_same_note() {
+    // Pitch and level of a piano C4 at rates from 22.05 to 192 kHz.
+    let measure = |fs: f64| {
+        let settings = default_settings(InstrumentKind::Piano, fs);
+        let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+        let n = (0.6 * fs) as usize;
+        let (mut l, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+        let on = [TimedEvent::new(0, Event::NoteOn { key: 60, velocity: 0.7 })];
+        s.process(&on, &mut l, &mut r);
+        let ring = &l[(0.3 * fs) as usize..];
+        (peak_near_at(ring, 261.6, fs), rms(ring))
+    };
+    let (f_ref, level_ref) = measure(48_000.0);
+    for fs in [22_050.0, 44_100.0, 96_000.0, 192_000.0] {
+        let (f, level) = measure(fs);
+        assert!(cents(f, f_ref).abs() < 1.0, "{fs} Hz: pitch {f} vs {f_ref}");
+        let db = 20.0 * (level / level_ref).log10();
+        assert!(db.abs() < 1.0, "{fs} Hz: level {db:.2} dB from 48 kHz");
+    }
+}

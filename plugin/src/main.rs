@@ -4,7 +4,9 @@
 //! number written out); `struck bench` measures the modal bank's speed.
 
 mod bench_cmd;
+mod midi_file;
 mod output;
+mod render_cmd;
 mod strike_cmd;
 
 use std::path::PathBuf;
@@ -53,6 +55,18 @@ enum Command {
                             each with its implicit contact solve). Prints the CPU model and the \
                             compiled kernel in use. Build with --release for meaningful figures.")]
     Bench(BenchArgs),
+    /// Play a MIDI file through the instrument and write a WAV.
+    #[command(long_about = "Play a standard MIDI file (format 0 or 1; tempo changes and SMPTE \
+                            timing honoured; every channel but 10 merged onto the one instrument) \
+                            through the same real-time synth the plugin runs, and write a stereo \
+                            32-bit float WAV at the synth's own level, lasting exactly from 0 to \
+                            the last event plus --tail-s. Notes, sustain (CC64, continuous), \
+                            sostenuto (CC66), una corda (CC67), all sound off (CC120), reset \
+                            controllers (CC121), all notes off (CC123) and pitch bend are played. \
+                            The samples are the same on every run and for every --block-size. \
+                            A bad argument, preset or MIDI file is refused with exit status 2 and \
+                            one line naming it; no WAV is written then, and an existing one is kept.")]
+    Render(render_cmd::RenderArgs),
 }
 
 #[derive(clap::Args)]
@@ -104,10 +118,15 @@ impl Failure {
 }
 
 fn main() -> ExitCode {
+    // No subcommand: Struck plays live (nice-plug's standalone reads its own options).
+    if let Some(status) = struck::standalone::run_unless_subcommand(&<Cli as clap::CommandFactory>::command()) {
+        return status;
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Strike(args) => strike_cmd::run(&args).map_err(|e| ("struck strike", e)),
         Command::Bench(args) => bench_cmd::run(&args).map_err(|e| ("struck bench", e)),
+        Command::Render(args) => render_cmd::run(&args).map_err(|e| ("struck render", e)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

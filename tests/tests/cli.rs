@@ -72,10 +72,8 @@ fn help_explains_every_subcommand() {
     }
     let bench = stdout(&struck(&["bench", "--help"]));
     assert!(bench.contains("mode-samples") || bench.contains("modes"), "{bench}");
-    // No subcommand: the help, and the status of a usage error.
-    let bare = struck(&[]);
-    assert_eq!(bare.status.code(), Some(2));
-    assert!(stderr(&bare).contains("strike"));
+    // No subcommand starts the standalone (tested in plugin_host.rs); its options are in the help.
+    assert!(help.contains("render") && help.contains("--backend"), "{help}");
 }
 
 #[test]

@@ -1,0 +1,288 @@
+//! The panel: every parameter, grouped as a player thinks of them (Instrument,
+//! Touch, Hammer, Strings, Output), beside a live view of the physics.
+//!
+//! The panel owns the reading end of the engine's [`Scope`] (behind a mutex
+//! that only the panel and `activate` take; the audio thread writes into the
+//! scope's lock-free queues and never sees the lock). It repaints about 30
+//! times a second while open.
+
+pub mod views;
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use egui::{RichText, Ui, Vec2};
+use nice_plug::context::gui::GuiContext;
+use nice_plug::editor::dpi::LogicalSize;
+use nice_plug::prelude::*;
+use nice_plug_egui::widgets::ParamSlider;
+use nice_plug_egui::{
+    EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier, baseview, create_egui_editor,
+};
+use struck_engine::synth::Scope;
+
+use crate::params::{Instrument, StruckParams};
+use crate::standalone;
+use views::LiveView;
+
+/// The window's size, logical pixels.
+pub const WIDTH: f64 = 1000.0;
+pub const HEIGHT: f64 = 660.0;
+const PARAMS_WIDTH: f32 = 340.0;
+/// Time between repaints while the panel is open.
+const REPAINT: Duration = Duration::from_millis(33);
+
+/// The live view's source: the scope reader of the synth now playing, with its rate.
+pub struct ScopeFeed {
+    pub scope: Scope,
+    pub sample_rate_hz: f64,
+}
+
+/// Shared between `activate` (which replaces it with each new synth) and the panel.
+pub type SharedScope = Arc<Mutex<Option<ScopeFeed>>>;
+
+pub fn default_state() -> Arc<EguiEditorState> {
+    EguiEditorState::from_size(LogicalSize::new(WIDTH, HEIGHT), 1.0)
+}
+
+/// The editor nice-plug opens in a host window or the standalone's.
+pub fn create(
+    params: Arc<StruckParams>,
+    scope: SharedScope,
+    state: Arc<EguiEditorState>,
+) -> Option<EguiEditor<StruckEditor>> {
+    create_egui_editor(
+        state,
+        RepaintNotifier::new(),
+        EguiNiceSettings::new().with_tile("Struck"),
+        StruckEditor::new(params, scope),
+    )
+}
+
+/// The panel's state (it appears in the plugin's `Editor` type, hence public).
+pub struct StruckEditor {
+    params: Arc<StruckParams>,
+    scope: SharedScope,
+    gui: Option<GuiContext>,
+    live: LiveView,
+    sample_rate_hz: f64,
+}
+
+impl StruckEditor {
+    pub fn new(params: Arc<StruckParams>, scope: SharedScope) -> Self {
+        Self { params, scope, gui: None, live: LiveView::default(), sample_rate_hz: 48_000.0 }
+    }
+
+    /// Hand the panel the host's context (what `build` receives in a real window).
+    pub fn set_gui_context(&mut self, gui: GuiContext) {
+        self.gui = Some(gui);
+    }
+
+    /// Draw the whole panel into `ui` (and read the scope).
+    pub fn draw(&mut self, ui: &mut Ui) {
+        if let Ok(mut feed) = self.scope.lock()
+            && let Some(feed) = feed.as_mut()
+        {
+            self.live.update(&mut feed.scope);
+            self.sample_rate_hz = feed.sample_rate_hz;
+        }
+        let params = self.params.clone();
+        egui::Panel::left("struck-parameters").exact_size(PARAMS_WIDTH).resizable(false).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| match &self.gui {
+                Some(gui) => parameter_groups(ui, &params, &gui.param_setter()),
+                None => {
+                    ui.label("(no host context)");
+                }
+            });
+        });
+        egui::CentralPanel::default().show(ui, |ui| self.physics(ui));
+    }
+
+    fn physics(&mut self, ui: &mut Ui) {
+        ui.heading("The string, as it moves");
+        let width = ui.available_width();
+        let frame = self.live.frame().cloned();
+        views::string_view(ui, frame.as_ref(), Vec2::new(width, 170.0));
+        ui.add_space(6.0);
+        views::contact_view(ui, frame.as_ref(), Vec2::new(width, 150.0));
+        ui.add_space(6.0);
+        let height = (ui.available_height() - 4.0).max(120.0);
+        let fs = self.sample_rate_hz;
+        views::spectrum_view(ui, self.live.spectrum_db(), fs, Vec2::new(width, height));
+    }
+}
+
+/// One titled group of parameters.
+fn group(ui: &mut Ui, title: &str, add: impl FnOnce(&mut Ui)) {
+    ui.group(|ui| {
+        ui.set_width(ui.available_width());
+        ui.label(RichText::new(title).strong().size(15.0));
+        add(ui);
+    });
+    ui.add_space(4.0);
+}
+
+/// A labelled slider row.
+fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter) {
+    ui.horizontal(|ui| {
+        ui.add_sized([118.0, 18.0], egui::Label::new(label));
+        ui.add(ParamSlider::for_param(param, setter).with_width(120.0));
+    });
+}
+
+fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+    group(ui, "Instrument", |ui| {
+        ui.horizontal_wrapped(|ui| {
+            let current = params.instrument.kind.value();
+            for choice in Instrument::ALL {
+                let name = choice.kind().name();
+                if ui.selectable_label(current == choice, name).clicked() && current != choice {
+                    setter.begin_set_parameter(&params.instrument.kind);
+                    setter.set_parameter(&params.instrument.kind, choice);
+                    setter.end_set_parameter(&params.instrument.kind);
+                }
+            }
+        });
+    });
+    group(ui, "Touch", |ui| {
+        slider(ui, "Softest", &params.touch.min, setter);
+        slider(ui, "Hardest", &params.touch.max, setter);
+        slider(ui, "Curve", &params.touch.shape, setter);
+        let kind = params.kind();
+        let unit = views::touch_unit(kind);
+        let what = if unit == "mm" { "pluck height" } else { "exciter speed" };
+        ui.label(RichText::new(format!("velocity to {what}, {unit}")).small());
+        views::touch_curve(ui, &params.controls(), kind, Vec2::new(ui.available_width(), 96.0));
+    });
+    group(ui, "Hammer", |ui| {
+        slider(ui, "Mass", &params.hammer.mass, setter);
+        slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
+        slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
+        slider(ui, "Strike position", &params.hammer.position, setter);
+    });
+    group(ui, "Strings", |ui| {
+        slider(ui, "Damping", &params.strings.damping, setter);
+        slider(ui, "Unison detune", &params.strings.detune, setter);
+    });
+    group(ui, "Output", |ui| {
+        slider(ui, "Polyphony", &params.output.polyphony, setter);
+        slider(ui, "Bend range", &params.output.bend_range, setter);
+        slider(ui, "Level", &params.output.level_db, setter);
+    });
+}
+
+impl NiceEguiApp for StruckEditor {
+    fn build(
+        &mut self,
+        _egui_ctx: egui::Context,
+        gui: GuiContext,
+        _frame: &mut Frame,
+    ) -> Result<(), baseview::HandlerError> {
+        standalone::watch_stop_signals();
+        self.gui = Some(gui);
+        Ok(())
+    }
+
+    fn ui(&mut self, ui: &mut Ui, _frame: &mut Frame) {
+        if standalone::stop_requested() {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        self.draw(ui);
+        ui.ctx().request_repaint_after(REPAINT);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use nice_plug::context::gui::GuiContextInner;
+    use struck_engine::instrument::InstrumentKind;
+    use struck_engine::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
+
+    use super::*;
+
+    /// A host that counts parameter changes.
+    #[derive(Default)]
+    struct Host {
+        changes: AtomicUsize,
+    }
+
+    impl GuiContextInner for Host {
+        fn plugin_api(&self) -> PluginApi {
+            PluginApi::Standalone
+        }
+        unsafe fn raw_begin_set_parameter(&self, _param: ParamPtr) {}
+        unsafe fn raw_set_parameter_normalized(&self, _param: ParamPtr, _normalized: f32) {
+            self.changes.fetch_add(1, Ordering::Relaxed);
+        }
+        unsafe fn raw_end_set_parameter(&self, _param: ParamPtr) {}
+        fn get_state(&self) -> PluginState {
+            unreachable!("the panel does not save state")
+        }
+        fn set_state(&self, _state: PluginState) {}
+        fn request_restart(&self) {}
+    }
+
+    fn frame(ctx: &egui::Context, editor: &mut StruckEditor) -> egui::FullOutput {
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(WIDTH as f32, HEIGHT as f32))),
+            ..Default::default()
+        };
+        ctx.run_ui(input, |ui| editor.draw(ui))
+    }
+
+    /// The panel builds and draws with no window: every group, the touch curve and
+    /// the three live views fed by a synth that has just struck a key.
+    #[test]
+    fn the_panel_draws_headless_from_a_live_scope() {
+        let params = Arc::new(StruckParams::default());
+        let shared: SharedScope = Arc::new(Mutex::new(None));
+        assert!(create(params.clone(), shared.clone(), default_state()).is_some());
+
+        let fs = 48_000.0;
+        let instrument = Instrument::build(&default_settings(InstrumentKind::Santoor, fs)).unwrap();
+        let (mut synth, scope) = Synth::new(Box::new(instrument));
+        *shared.lock().unwrap() = Some(ScopeFeed { scope, sample_rate_hz: fs });
+        let (mut l, mut r) = (vec![0.0f32; 4800], vec![0.0f32; 4800]);
+        synth.process(&[TimedEvent::new(0, Event::NoteOn { key: 69, velocity: 0.9 })], &mut l, &mut r);
+
+        let host = Arc::new(Host::default());
+        let mut editor = StruckEditor::new(params, shared);
+        editor.set_gui_context(GuiContext::new(host.clone()));
+        let ctx = egui::Context::default();
+        for _ in 0..3 {
+            let mut out = frame(&ctx, &mut editor);
+            out.textures_delta.clear();
+            let shapes = out.shapes.len();
+            assert!(shapes > 100, "the panel drew {shapes} shapes");
+            let vertices: usize = ctx
+                .tessellate(out.shapes, out.pixels_per_point)
+                .iter()
+                .map(|p| match &p.primitive {
+                    egui::epaint::Primitive::Mesh(mesh) => mesh.vertices.len(),
+                    _ => 0,
+                })
+                .sum();
+            assert!(vertices > 1000, "the panel tessellated to {vertices} vertices");
+        }
+        let shown = editor.live.frame().expect("a scope frame arrived");
+        assert_eq!(shown.midi_key, 69);
+        assert!(shown.contact_len > 0 && shown.contact_n.iter().any(|&f| f > 0.0));
+        let spectrum = editor.live.spectrum_db();
+        // A4 at 440 Hz: the loudest bin lies near it or a partial above.
+        let loudest = (0..spectrum.len()).max_by(|&a, &b| spectrum[a].total_cmp(&spectrum[b])).unwrap();
+        let loudest_hz = loudest as f64 * fs / views::SPECTRUM_SIZE as f64;
+        assert!(spectrum[loudest] > -60.0 && loudest_hz > 300.0, "{loudest_hz} Hz at {} dB", spectrum[loudest]);
+        assert_eq!(host.changes.load(Ordering::Relaxed), 0, "drawing changes no parameter");
+    }
+
+    #[test]
+    fn names_and_lengths_read_well() {
+        assert_eq!(views::key_name(69), "A4");
+        assert_eq!(views::key_name(60), "C4");
+        assert_eq!(views::key_name(21), "A0");
+        assert_eq!(views::format_length(1.5e-3), "1.50 mm");
+        assert_eq!(views::format_length(2.0e-5), "20.0 µm");
+    }
+}

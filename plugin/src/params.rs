@@ -1,0 +1,256 @@
+//! The plugin's parameters: what a host automates and saves, and how each one
+//! maps onto the engine's plain structs ([`InstrumentSettings`] with its
+//! [`Voicing`], which need a rebuild, and [`Controls`], which do not).
+//!
+//! Ids are short and permanent: a saved project refers to them. Voicing
+//! parameters are scale factors on the instrument's own per-key values (1 = as
+//! built), shown as percentages; their ranges are skewed so that 100 % sits in
+//! the middle of a knob's travel.
+
+use std::sync::RwLock;
+
+use nice_plug::prelude::*;
+use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::synth::{Controls, InstrumentSettings};
+
+/// The instrument choice as a host parameter (ids are permanent).
+#[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Instrument {
+    #[id = "piano"]
+    Piano,
+    #[id = "santoor"]
+    Santoor,
+    #[id = "clavichord"]
+    Clavichord,
+    #[id = "harpsichord"]
+    Harpsichord,
+}
+
+impl Instrument {
+    pub fn kind(self) -> InstrumentKind {
+        match self {
+            Instrument::Piano => InstrumentKind::Piano,
+            Instrument::Santoor => InstrumentKind::Santoor,
+            Instrument::Clavichord => InstrumentKind::Clavichord,
+            Instrument::Harpsichord => InstrumentKind::Harpsichord,
+        }
+    }
+
+    pub const ALL: [Instrument; 4] =
+        [Instrument::Piano, Instrument::Santoor, Instrument::Clavichord, Instrument::Harpsichord];
+}
+
+/// Version of the saved state's layout, kept with the state for future migrations.
+pub const STATE_VERSION: u32 = 1;
+
+/// Every parameter, grouped as a player thinks of them.
+#[derive(Params)]
+pub struct StruckParams {
+    #[nested(group = "Instrument")]
+    pub instrument: InstrumentParams,
+    #[nested(group = "Touch")]
+    pub touch: TouchParams,
+    #[nested(group = "Hammer")]
+    pub hammer: HammerParams,
+    #[nested(group = "Strings")]
+    pub strings: StringParams,
+    #[nested(group = "Output")]
+    pub output: OutputParams,
+    /// The layout version of the saved state ([`STATE_VERSION`]).
+    #[persist = "state-version"]
+    pub state_version: RwLock<u32>,
+}
+
+#[derive(Params)]
+pub struct InstrumentParams {
+    #[id = "inst"]
+    pub kind: EnumParam<Instrument>,
+}
+
+#[derive(Params)]
+pub struct TouchParams {
+    /// Softest touch (velocity 1), as a fraction of the instrument's touch range on a log scale.
+    #[id = "tmin"]
+    pub min: FloatParam,
+    /// Hardest touch (velocity 127), likewise.
+    #[id = "tmax"]
+    pub max: FloatParam,
+    /// Velocity curve exponent: 1 even, above 1 needs a harder touch.
+    #[id = "tshp"]
+    pub shape: FloatParam,
+}
+
+#[derive(Params)]
+pub struct HammerParams {
+    #[id = "hmass"]
+    pub mass: FloatParam,
+    #[id = "hstif"]
+    pub stiffness: FloatParam,
+    #[id = "hexp"]
+    pub exponent: FloatParam,
+    #[id = "hpos"]
+    pub position: FloatParam,
+}
+
+#[derive(Params)]
+pub struct StringParams {
+    #[id = "damp"]
+    pub damping: FloatParam,
+    #[id = "detn"]
+    pub detune: FloatParam,
+}
+
+#[derive(Params)]
+pub struct OutputParams {
+    #[id = "poly"]
+    pub polyphony: IntParam,
+    #[id = "bend"]
+    pub bend_range: IntParam,
+    /// Output level, dB (the engine glides to it, so no smoother here).
+    #[id = "gain"]
+    pub level_db: FloatParam,
+}
+
+/// Skew that puts `center` at the middle of `min..=max`'s travel.
+fn centred_skew(min: f32, max: f32, center: f32) -> f32 {
+    0.5f32.ln() / ((center - min) / (max - min)).ln()
+}
+
+/// A scale factor from `min` to `max` (1 = as built), shown as a percentage.
+fn scale_param(name: &str, min: f32, max: f32) -> FloatParam {
+    FloatParam::new(name, 1.0, FloatRange::Skewed { min, max, factor: centred_skew(min, max, 1.0) })
+        .with_unit(" %")
+        .with_value_to_string(formatters::v2s_f32_percentage(0))
+        .with_string_to_value(formatters::s2v_f32_percentage())
+}
+
+fn percent_param(name: &str, default: f32) -> FloatParam {
+    FloatParam::new(name, default, FloatRange::Linear { min: 0.0, max: 1.0 })
+        .with_unit(" %")
+        .with_value_to_string(formatters::v2s_f32_percentage(0))
+        .with_string_to_value(formatters::s2v_f32_percentage())
+}
+
+impl Default for StruckParams {
+    fn default() -> Self {
+        Self {
+            instrument: InstrumentParams { kind: EnumParam::new("Instrument", Instrument::Piano) },
+            touch: TouchParams {
+                min: percent_param("Touch min", 0.0),
+                max: percent_param("Touch max", 1.0),
+                shape: FloatParam::new(
+                    "Touch curve",
+                    1.0,
+                    FloatRange::Skewed { min: 0.25, max: 4.0, factor: centred_skew(0.25, 4.0, 1.0) },
+                )
+                .with_value_to_string(formatters::v2s_f32_rounded(2)),
+            },
+            hammer: HammerParams {
+                mass: scale_param("Hammer mass", 0.25, 4.0),
+                stiffness: scale_param("Felt stiffness K", 0.25, 4.0),
+                exponent: scale_param("Felt exponent alpha", 0.5, 2.0),
+                position: scale_param("Strike position", 0.25, 4.0),
+            },
+            strings: StringParams {
+                damping: scale_param("Damping", 0.25, 4.0),
+                detune: FloatParam::new(
+                    "Unison detune",
+                    1.0,
+                    FloatRange::Skewed { min: 0.0, max: 4.0, factor: centred_skew(0.0, 4.0, 1.0) },
+                )
+                .with_unit(" %")
+                .with_value_to_string(formatters::v2s_f32_percentage(0))
+                .with_string_to_value(formatters::s2v_f32_percentage()),
+            },
+            output: OutputParams {
+                polyphony: IntParam::new("Polyphony", 64, IntRange::Linear { min: 1, max: 128 }).with_unit(" keys"),
+                bend_range: IntParam::new("Bend range", 2, IntRange::Linear { min: 0, max: 24 }).with_unit(" st"),
+                level_db: FloatParam::new("Level", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
+                    .with_unit(" dB")
+                    .with_step_size(0.1)
+                    .with_value_to_string(formatters::v2s_f32_rounded(1)),
+            },
+            state_version: RwLock::new(STATE_VERSION),
+        }
+    }
+}
+
+impl StruckParams {
+    pub fn kind(&self) -> InstrumentKind {
+        self.instrument.kind.value().kind()
+    }
+
+    /// The player's voicing, as scale factors on the instrument's own values.
+    pub fn voicing(&self) -> Voicing {
+        Voicing {
+            hammer_mass: self.hammer.mass.value() as f64,
+            hammer_stiffness: self.hammer.stiffness.value() as f64,
+            hammer_exponent: self.hammer.exponent.value() as f64,
+            strike_position: self.hammer.position.value() as f64,
+            damping: self.strings.damping.value() as f64,
+            unison_detune: self.strings.detune.value() as f64,
+        }
+    }
+
+    /// What the instrument's tables are built from, at `sample_rate_hz`.
+    pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
+        InstrumentSettings { kind: self.kind(), voicing: self.voicing(), sample_rate_hz }
+    }
+
+    /// The per-block controls. Reads atomics only: real-time safe.
+    pub fn controls(&self) -> Controls {
+        Controls {
+            touch_min: self.touch.min.value() as f64,
+            touch_max: self.touch.max.value() as f64,
+            touch_shape: self.touch.shape.value() as f64,
+            polyphony: self.output.polyphony.value().clamp(1, 128) as usize,
+            output_gain: 10f64.powf(self.output.level_db.value() as f64 / 20.0),
+            bend_range_semitones: self.output.bend_range.value() as f64,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_instrument_as_built() {
+        let p = StruckParams::default();
+        assert_eq!(p.voicing(), Voicing::default());
+        assert_eq!(p.controls(), Controls::default());
+        assert_eq!(p.kind(), InstrumentKind::Piano);
+    }
+
+    #[test]
+    fn ids_are_short_unique_and_grouped() {
+        let p = StruckParams::default();
+        let map = p.param_map();
+        let ids: Vec<&str> = map.iter().map(|(id, _, _)| id.as_str()).collect();
+        let expected =
+            ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "poly", "bend", "gain"];
+        assert_eq!(ids, expected);
+        let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();
+        assert_eq!(groups[0], "Instrument");
+        assert_eq!(groups[12], "Output");
+    }
+
+    #[test]
+    fn scale_ranges_put_as_built_at_mid_travel() {
+        let p = StruckParams::default();
+        for param in [&p.hammer.mass, &p.hammer.stiffness, &p.hammer.exponent, &p.strings.damping, &p.strings.detune] {
+            assert!((param.range().normalize(1.0) - 0.5).abs() < 1e-5, "{}", param.name());
+            assert!((param.range().unnormalize(0.5) - 1.0).abs() < 1e-5, "{}", param.name());
+        }
+        assert!((p.touch.shape.range().normalize(1.0) - 0.5).abs() < 1e-5);
+    }
+
+    #[test]
+    fn values_display_with_units() {
+        let p = StruckParams::default();
+        assert_eq!(p.hammer.mass.normalized_value_to_string(0.5, true), "100 %");
+        assert_eq!(p.output.level_db.to_string(), "0.0 dB");
+        assert_eq!(p.output.polyphony.to_string(), "64 keys");
+        assert_eq!(p.instrument.kind.to_string(), "Piano");
+    }
+}

@@ -1,0 +1,542 @@
+//! Struck's CLAP plugin in a real host (clack-host): the bundle that
+//! `cargo xtask bundle struck` writes to `target/bundled/Struck.clap` is
+//! loaded, activated at 48 kHz and played with notes, a sustain pedal and
+//! parameter changes, processing on an audio thread of its own as a DAW does.
+//!
+//! When the bundle is a debug build, nice-plug's `assert_process_allocs` is on
+//! inside it: any allocation in `process` aborts this test process, so the long
+//! random session below is the real-time check in a real host.
+//!
+//! Without the bundle these tests say so and pass, unless STRUCK_REQUIRE_BUNDLE
+//! is set (as `cargo xtask test` does after bundling), when they fail.
+
+use std::cell::Cell;
+use std::ffi::CStr;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use clack_extensions::params::{ParamInfoBuffer, PluginParams};
+use clack_extensions::state::PluginState;
+use clack_extensions::voice_info::{HostVoiceInfo, HostVoiceInfoImpl, PluginVoiceInfo};
+use clack_host::events::Match;
+use clack_host::events::event_types::{MidiEvent, NoteOffEvent, NoteOnEvent, ParamValueEvent};
+use clack_host::events::spaces::CoreEventSpace;
+use clack_host::prelude::*;
+
+const FS: f64 = 48_000.0;
+const BLOCK: usize = 256;
+const PLUGIN_ID: &CStr = c"dev.struck.struck";
+
+/// The bundle to load, or None (with a note) when it is missing and not required.
+fn bundle() -> Option<PathBuf> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), PathBuf::from);
+    let path = target.join("bundled").join("Struck.clap");
+    if path.exists() {
+        return Some(path);
+    }
+    assert!(
+        std::env::var_os("STRUCK_REQUIRE_BUNDLE").is_none(),
+        "STRUCK_REQUIRE_BUNDLE is set but {} does not exist",
+        path.display()
+    );
+    eprintln!(
+        "plugin_host: skipped: {} not found (run `cargo xtask bundle struck` first, or set STRUCK_REQUIRE_BUNDLE)",
+        path.display()
+    );
+    None
+}
+
+/// The host's thread-safe side: remembers when the plugin asks for a main-thread callback.
+struct Shared {
+    callback: AtomicBool,
+}
+
+impl SharedHandler<'_> for Shared {
+    fn request_restart(&self) {}
+    fn request_process(&self) {}
+    fn request_callback(&self) {
+        self.callback.store(true, Ordering::SeqCst);
+    }
+}
+
+/// The host's main-thread side: counts voice-info changes.
+#[derive(Default)]
+struct MainThread {
+    voice_info_changes: Cell<u32>,
+}
+
+impl MainThreadHandler<'_> for MainThread {}
+
+impl HostVoiceInfoImpl for MainThread {
+    fn changed(&self) {
+        self.voice_info_changes.set(self.voice_info_changes.get() + 1);
+    }
+}
+
+struct TestHost;
+
+impl HostHandlers for TestHost {
+    type Shared<'a> = Shared;
+    type MainThread<'a> = MainThread;
+    type AudioProcessor<'a> = ();
+
+    fn declare_extensions(builder: &mut HostExtensions<Self>, _shared: &Self::Shared<'_>) {
+        builder.register::<HostVoiceInfo>();
+    }
+}
+
+struct Loaded {
+    entry: PluginEntry,
+    info: HostInfo,
+}
+
+impl Loaded {
+    fn new(path: &PathBuf) -> Self {
+        // SAFETY: the bundle is our own plugin, built from this workspace.
+        let entry = unsafe { PluginEntry::load(path) }.expect("load Struck.clap");
+        let info = HostInfo::new("struck-tests", "Struck", "https://example.invalid", "1.0").unwrap();
+        Self { entry, info }
+    }
+
+    fn instance(&self) -> PluginInstance<TestHost> {
+        PluginInstance::<TestHost>::new(
+            |_| Shared { callback: AtomicBool::new(false) },
+            |_| MainThread::default(),
+            &self.entry,
+            PLUGIN_ID,
+            &self.info,
+        )
+        .expect("instantiate Struck")
+    }
+}
+
+/// Run the main-thread callbacks the plugin asked for.
+fn service_main_thread(instance: &mut PluginInstance<TestHost>) {
+    let asked = instance.access_shared_handler(|s| s.callback.swap(false, Ordering::SeqCst));
+    if asked {
+        instance.call_on_main_thread_callback();
+    }
+}
+
+/// Parameter ids by parameter name, and the count.
+fn param_ids(instance: &mut PluginInstance<TestHost>) -> Vec<(String, ClapId, f64)> {
+    let handle = instance.plugin_handle();
+    let params: PluginParams = handle.get_extension().expect("params extension");
+    let mut buffer = ParamInfoBuffer::new();
+    (0..params.count(&handle))
+        .map(|i| {
+            let info = params.get_info(&handle, i, &mut buffer).expect("param info");
+            let name = String::from_utf8_lossy(info.name).into_owned();
+            (name, info.id, info.max_value)
+        })
+        .collect()
+}
+
+fn param(ids: &[(String, ClapId, f64)], name: &str) -> (ClapId, f64) {
+    ids.iter().find(|(n, _, _)| n == name).map(|(_, id, max)| (*id, *max)).unwrap_or_else(|| panic!("no {name}"))
+}
+
+fn values(instance: &mut PluginInstance<TestHost>, ids: &[(String, ClapId, f64)]) -> Vec<f64> {
+    let handle = instance.plugin_handle();
+    let params: PluginParams = handle.get_extension().unwrap();
+    ids.iter().map(|(_, id, _)| params.get_value(&handle, *id).expect("param value")).collect()
+}
+
+/// One block's input: events sorted by time.
+type Script = Vec<(usize, EventBuffer)>;
+
+/// What came back from a run.
+struct Run {
+    left: Vec<f32>,
+    right: Vec<f32>,
+    /// (sample, key, note id) of every note-end event.
+    note_ends: Vec<(usize, i32, i64)>,
+    /// Per block: whether the plugin asked to keep processing regardless of silence.
+    keep_alive: Vec<bool>,
+}
+
+/// Process blocks of the given sizes on an audio thread, with each block's events
+/// from `script`, pausing `pace` after each (the workshop rebuilds in real time).
+fn process(instance: &mut PluginInstance<TestHost>, sizes: &[usize], script: &Script, pace: Duration) -> Run {
+    let config = PluginAudioConfiguration { sample_rate: FS, min_frames_count: 1, max_frames_count: 4096 };
+    let processor = instance.activate(|_, _| (), config).expect("activate");
+    let (processor, run) = std::thread::scope(|s| {
+        s.spawn(|| {
+            let mut processor = processor.start_processing().expect("start processing");
+            let total: usize = sizes.iter().sum();
+            let mut run = Run {
+                left: Vec::with_capacity(total),
+                right: Vec::with_capacity(total),
+                note_ends: Vec::new(),
+                keep_alive: Vec::new(),
+            };
+            let mut outputs = AudioPorts::with_capacity(2, 1);
+            let mut out_events = EventBuffer::with_capacity(1024);
+            let empty = EventBuffer::new();
+            let (mut left, mut right) = (vec![0.0f32; 4096], vec![0.0f32; 4096]);
+            let mut next = 0;
+            let mut position = 0;
+            for (index, &n) in sizes.iter().enumerate() {
+                let events = match script.get(next) {
+                    Some((block, events)) if *block == index => {
+                        next += 1;
+                        events
+                    }
+                    _ => &empty,
+                };
+                out_events.clear();
+                let input_audio = InputAudioBuffers::empty();
+                let mut output_audio = outputs.with_output_buffers([AudioPortBuffer {
+                    latency: 0,
+                    channels: AudioPortBufferType::f32_output_only([&mut left[..n], &mut right[..n]]),
+                }]);
+                let status = processor
+                    .process(
+                        &input_audio,
+                        &mut output_audio,
+                        &events.as_input(),
+                        &mut out_events.as_output(),
+                        Some(position as u64),
+                        None,
+                    )
+                    .expect("process");
+                run.keep_alive.push(status == ProcessStatus::Continue);
+                for event in out_events.iter() {
+                    if let Some(CoreEventSpace::NoteEnd(end)) = event.as_core_event() {
+                        let pckn = end.pckn();
+                        let key = match pckn.key {
+                            Match::Specific(k) => k as i32,
+                            Match::All => -1,
+                        };
+                        let note_id = match pckn.note_id {
+                            Match::Specific(id) => id as i64,
+                            Match::All => -1,
+                        };
+                        run.note_ends.push((position + end.header().time() as usize, key, note_id));
+                    }
+                }
+                run.left.extend_from_slice(&left[..n]);
+                run.right.extend_from_slice(&right[..n]);
+                position += n;
+                std::thread::sleep(pace);
+            }
+            (processor.stop_processing(), run)
+        })
+        .join()
+        .expect("the audio thread")
+    });
+    instance.deactivate(processor);
+    service_main_thread(instance);
+    run
+}
+
+fn midi(time: u32, bytes: [u8; 3]) -> MidiEvent {
+    MidiEvent::new(time, 0, bytes)
+}
+
+fn note_on(time: u32, key: u16, note_id: u32, velocity: f64) -> NoteOnEvent {
+    NoteOnEvent::new(time, Pckn::new(0u16, 0u16, key, note_id), velocity)
+}
+
+fn note_off(time: u32, key: u16, note_id: u32) -> NoteOffEvent {
+    NoteOffEvent::new(time, Pckn::new(0u16, 0u16, key, note_id), 0.0)
+}
+
+fn set(time: u32, (id, max): (ClapId, f64), normalized: f64) -> ParamValueEvent {
+    ParamValueEvent::new(time, id, Pckn::match_all(), normalized * max)
+}
+
+/// The strongest frequency between `low` and `high` Hz (Goertzel scan, 0.25 Hz steps).
+fn strongest_hz(samples: &[f32], low: f64, high: f64) -> f64 {
+    let window: Vec<f64> = (0..samples.len())
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / samples.len() as f64).cos())
+        .collect();
+    let power = |hz: f64| {
+        let w = 2.0 * std::f64::consts::PI * hz / FS;
+        let (mut re, mut im) = (0.0, 0.0);
+        for (i, (&s, &h)) in samples.iter().zip(&window).enumerate() {
+            re += s as f64 * h * (w * i as f64).cos();
+            im -= s as f64 * h * (w * i as f64).sin();
+        }
+        re * re + im * im
+    };
+    let steps = ((high - low) / 0.25) as usize;
+    (0..=steps).map(|i| low + 0.25 * i as f64).max_by(|a, b| power(*a).total_cmp(&power(*b))).unwrap()
+}
+
+fn rms(samples: &[f32]) -> f64 {
+    (samples.iter().map(|&s| (s as f64).powi(2)).sum::<f64>() / samples.len().max(1) as f64).sqrt()
+}
+
+#[test]
+fn plays_a_held_note_reports_its_end_and_round_trips_its_state() {
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    let ids = param_ids(&mut instance);
+    let names: Vec<&str> = ids.iter().map(|(n, _, _)| n.as_str()).collect();
+    for expected in ["Instrument", "Touch min", "Hammer mass", "Damping", "Polyphony", "Bend range", "Level"] {
+        assert!(names.contains(&expected), "{expected} missing from {names:?}");
+    }
+
+    // Voicing changes while inactive (a rebuild, so activation builds them in), then
+    // output changes in the first block, with the sustain pedal up.
+    {
+        let mut changes = EventBuffer::new();
+        changes.push(&set(0, param(&ids, "Hammer mass"), 0.6));
+        changes.push(&set(0, param(&ids, "Touch curve"), 0.4));
+        let mut handle = instance.inactive_plugin_handle().expect("inactive");
+        let params: PluginParams = handle.get_extension().unwrap();
+        params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
+    }
+    let sizes = vec![BLOCK; (2.5 * FS) as usize / BLOCK];
+    let block_at = |seconds: f64| (seconds * FS) as usize / BLOCK;
+    let mut script: Script = Vec::new();
+    let mut first = EventBuffer::new();
+    first.push(&set(0, param(&ids, "Level"), (-6.0 + 60.0) / 72.0));
+    first.push(&set(0, param(&ids, "Polyphony"), 31.0 / 127.0));
+    first.push(&midi(0, [0xB0, 64, 0]));
+    script.push((0, first));
+    // A4, note id 7, at 0.1 s; the sustain pedal goes down at 0.3 s, the key comes up at
+    // 0.6 s (it rings on in the pedal) and the pedal comes up at 1.0 s.
+    let mut at = |seconds: f64, push: &dyn Fn(&mut EventBuffer, u32)| {
+        let block = block_at(seconds);
+        let offset = ((seconds * FS) as usize - block * BLOCK) as u32;
+        let mut events = EventBuffer::new();
+        push(&mut events, offset);
+        script.push((block, events));
+    };
+    at(0.1, &|e, t| e.push(&note_on(t, 69, 7, 0.8)));
+    at(0.3, &|e, t| e.push(&midi(t, [0xB0, 64, 127])));
+    at(0.6, &|e, t| e.push(&note_off(t, 69, 7)));
+    at(1.0, &|e, t| e.push(&midi(t, [0xB0, 64, 0])));
+    let run = process(&mut instance, &sizes, &script, Duration::ZERO);
+
+    let all: Vec<f32> = run.left.iter().chain(&run.right).copied().collect();
+    assert!(all.iter().all(|s| s.is_finite()), "non-finite samples");
+    let note_start = (0.1 * FS) as usize;
+    assert!(rms(&run.left[..note_start]) == 0.0, "silence before the note");
+    let held = &run.left[note_start + 2400..note_start + 2400 + 9600];
+    assert!(rms(held) > 1e-3, "the held note is audible (RMS {})", rms(held));
+    assert!(all.iter().all(|s| s.abs() <= 2.0), "no sample beyond 2.0 full scale");
+    let f = strongest_hz(held, 300.0, 1000.0);
+    assert!((f - 440.0).abs() < 4.0, "A4 sounds at {f} Hz");
+
+    // The key ends only after the pedal lets the damper fall, and is reported once.
+    assert_eq!(run.note_ends.len(), 1, "note ends: {:?}", run.note_ends);
+    let (when, key, note_id) = run.note_ends[0];
+    assert_eq!((key, note_id), (69, 7));
+    assert!(when > (1.0 * FS) as usize, "the key ended at {} s, before the pedal came up", when as f64 / FS);
+    // While the key sounds the plugin asks to be kept processing; after, not.
+    let ended_block = when / BLOCK;
+    assert!(run.keep_alive[block_at(0.2)..ended_block].iter().all(|&k| k), "kept alive while sounding");
+    assert!(run.keep_alive[ended_block + 1..].iter().all(|&k| !k), "released once silent");
+    assert!(rms(&run.left[(ended_block + 1) * BLOCK..]) < 1e-6, "silent after the end");
+
+    // Voice info: the voice count follows the polyphony parameter (set to 32 above).
+    let voice_info = {
+        let handle = instance.plugin_handle();
+        let ext: PluginVoiceInfo = handle.get_extension().expect("voice-info extension");
+        ext.get(&handle).expect("voice info")
+    };
+    assert_eq!((voice_info.voice_count, voice_info.voice_capacity), (32, 128));
+    assert!(instance.access_handler(|h: &MainThread| h.voice_info_changes.get()) >= 1, "voice info changed");
+
+    // State: save, load into a fresh instance, compare every parameter.
+    let saved_values = values(&mut instance, &ids);
+    let defaults: Vec<f64> = {
+        let mut fresh = loaded.instance();
+        values(&mut fresh, &ids)
+    };
+    assert_ne!(saved_values, defaults, "the parameter changes took effect");
+    let mut bytes = Vec::new();
+    {
+        let handle = instance.plugin_handle();
+        let state: PluginState = handle.get_extension().expect("state extension");
+        state.save(&handle, &mut bytes).expect("save state");
+    }
+    let mut restored = loaded.instance();
+    {
+        let handle = restored.plugin_handle();
+        let state: PluginState = handle.get_extension().unwrap();
+        state.load(&handle, &mut bytes.as_slice()).expect("load state");
+    }
+    service_main_thread(&mut restored);
+    assert_eq!(values(&mut restored, &ids), saved_values, "state round-trips");
+    let mut again = Vec::new();
+    {
+        let handle = restored.plugin_handle();
+        let state: PluginState = handle.get_extension().unwrap();
+        state.save(&handle, &mut again).unwrap();
+    }
+    assert_eq!(String::from_utf8_lossy(&again), String::from_utf8_lossy(&bytes), "saved state is stable");
+}
+
+/// A small deterministic generator (xorshift64*).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Thirty seconds of random playing in random block sizes: notes, pedals, pitch
+/// bend, all-notes-off and resets, and automation of every parameter, instrument
+/// switches included. A debug bundle aborts on any allocation in `process`.
+#[test]
+fn survives_a_long_random_session_without_allocating() {
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    let ids = param_ids(&mut instance);
+    let mut rng = Rng(0x00c0_ffee_1234_5678);
+    let mut sizes = Vec::new();
+    let mut script: Script = Vec::new();
+    let mut total = 0;
+    let mut note_id = 0u32;
+    let mut automation = 0;
+    while total < (30.0 * FS) as usize {
+        let n = [1, 32, 64, 100, 256, 512, 1024, 4096][rng.below(8) as usize];
+        let mut events = EventBuffer::new();
+        let mut t = 0u32;
+        for _ in 0..rng.below(8) {
+            t = (t + rng.below(n as u64 / 4 + 1) as u32).min(n as u32 - 1);
+            let key = 21 + rng.below(88) as u16;
+            match rng.below(10) {
+                0..=3 => {
+                    note_id += 1;
+                    events.push(&note_on(t, key, note_id, rng.unit().max(0.01)));
+                }
+                4..=6 => events.push(&note_off(t, key, note_id)),
+                7 => events.push(&midi(t, [0xB0, [64, 66, 67][rng.below(3) as usize], rng.below(128) as u8])),
+                8 => events.push(&midi(t, [0xE0, rng.below(128) as u8, rng.below(128) as u8])),
+                _ => events.push(&midi(t, [0xB0, [120, 121, 123][rng.below(3) as usize], 0])),
+            }
+        }
+        // Now and then a burst of automation, instrument included; it then holds still
+        // long enough (in real time) for the workshop to rebuild.
+        if rng.below(60) == 0 {
+            for _ in 0..1 + rng.below(4) {
+                let (name, _, _) = &ids[rng.below(ids.len() as u64) as usize];
+                events.push(&set(n as u32 - 1, param(&ids, name), rng.unit()));
+            }
+            automation += 1;
+        }
+        if !events.is_empty() {
+            script.push((sizes.len(), events));
+        }
+        sizes.push(n);
+        total += n;
+    }
+    assert!(automation > 10, "{automation} bursts of automation");
+    let run = process(&mut instance, &sizes, &script, Duration::from_millis(1));
+    assert_eq!(run.left.len(), total);
+    assert!(run.left.iter().chain(&run.right).all(|s| s.is_finite()), "non-finite samples");
+    assert!(rms(&run.left) > 1e-4, "the session made sound");
+}
+
+// The standalone: `struck` with no subcommand.
+
+/// Whether this machine has no ALSA sound card.
+fn no_sound_card() -> bool {
+    std::fs::read_to_string("/proc/asound/cards").map_or(true, |cards| cards.contains("no soundcards"))
+}
+
+/// Whether a JACK server seems to be running (it keeps its sockets in /dev/shm).
+fn jack_server_running() -> bool {
+    std::fs::read_dir("/dev/shm")
+        .map(|dir| dir.flatten().any(|e| e.file_name().to_string_lossy().starts_with("jack_default")))
+        .unwrap_or(false)
+}
+
+/// Run `struck` headless with `args`; after `signal_after` send `signal` (if it still
+/// runs); kill it if it has not finished 10 s later. Returns (status code, stdout, stderr).
+fn standalone(args: &[&str], signal_after: Duration, signal: &str) -> (Option<i32>, String, String) {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(struck_tests::struck_binary())
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run struck");
+    let started = std::time::Instant::now();
+    let mut signalled = false;
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if !signalled && started.elapsed() >= signal_after {
+            Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
+            signalled = true;
+        }
+        if started.elapsed() > signal_after + Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("struck {args:?} did not stop");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let (mut out, mut err) = (String::new(), String::new());
+    child.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (status.code(), out, err)
+}
+
+#[test]
+fn the_standalone_says_in_one_line_when_there_is_no_audio_device() {
+    let mut cases: Vec<&[&str]> = Vec::new();
+    if no_sound_card() {
+        cases.push(&["-b", "alsa"]);
+        cases.push(&["-b", "alsa", "--sample-rate", "44100"]);
+    }
+    if !jack_server_running() {
+        cases.push(&["-b", "jack"]);
+    }
+    if no_sound_card() && !jack_server_running() {
+        cases.push(&[]);
+    }
+    if cases.is_empty() {
+        eprintln!("plugin_host: skipped: this machine has a sound card and a JACK server");
+    }
+    for args in cases {
+        let (code, out, err) = standalone(args, Duration::from_secs(20), "-TERM");
+        assert_eq!(code, Some(1), "struck {args:?}: {out}{err}");
+        assert_eq!(err.lines().count(), 1, "struck {args:?} printed more than one line: {err}");
+        assert!(err.starts_with("struck: no audio device found ("), "{err}");
+        assert!(err.contains("-b jack") && err.contains("struck render"), "{err}");
+    }
+}
+
+#[test]
+fn the_standalone_stops_cleanly_on_sigint_and_sigterm() {
+    for signal in ["-INT", "-TERM"] {
+        let (code, out, err) = standalone(&["-b", "dummy"], Duration::from_secs(2), signal);
+        assert_eq!(code, Some(0), "struck -b dummy after kill {signal}: {out}{err}");
+        assert!(!err.contains("ERROR"), "{err}");
+    }
+}
+
+#[test]
+fn struck_help_shows_the_subcommands_and_the_standalone_options() {
+    let (code, out, err) = standalone(&["--help"], Duration::from_secs(20), "-TERM");
+    assert_eq!(code, Some(0), "{err}");
+    for expected in ["strike", "bench", "render", "--backend", "--sample-rate", "--output-device"] {
+        assert!(out.contains(expected), "struck --help lacks {expected}: {out}");
+    }
+}

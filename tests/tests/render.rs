@@ -1,0 +1,448 @@
+//! `struck render`: MIDI files played through the real-time synth into WAVs, checked
+//! by what can be heard (length, silence, pitch, pedals, bends, tempo) rather than
+//! by exact loudness or timbre, and its refusals (exit status 2, one line naming
+//! the problem, no WAV written and an existing one kept).
+//!
+//! The MIDI files are in `tests/data/midi/`, written by `struck_tests::midi_gen`;
+//! the demo songs in `demo-songs/` by `struck_tests::demo_songs`.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use struck_tests::{demo_songs, midi_gen, stderr, stdout, struck};
+
+/// A test MIDI file.
+fn midi(name: &str) -> PathBuf {
+    midi_gen::test_dir().join(name)
+}
+
+fn path_str(path: &Path) -> &str {
+    path.to_str().expect("a UTF-8 path")
+}
+
+/// A render: its samples and format.
+struct Wav {
+    left: Vec<f32>,
+    right: Vec<f32>,
+    sample_rate_hz: u32,
+}
+
+impl Wav {
+    fn read(path: &Path) -> Self {
+        let mut reader = hound::WavReader::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let spec = reader.spec();
+        assert_eq!(spec.channels, 2, "stereo");
+        assert_eq!(spec.bits_per_sample, 32);
+        assert_eq!(spec.sample_format, hound::SampleFormat::Float);
+        let samples: Vec<f32> = reader.samples::<f32>().map(Result::unwrap).collect();
+        let left = samples.iter().step_by(2).copied().collect();
+        let right = samples.iter().skip(1).step_by(2).copied().collect();
+        Self { left, right, sample_rate_hz: spec.sample_rate }
+    }
+
+    fn len(&self) -> usize {
+        self.left.len()
+    }
+
+    fn mono(&self) -> Vec<f64> {
+        self.left.iter().zip(&self.right).map(|(&l, &r)| 0.5 * (f64::from(l) + f64::from(r))).collect()
+    }
+
+    fn index(&self, seconds: f64) -> usize {
+        ((seconds * f64::from(self.sample_rate_hz)).round() as usize).min(self.len())
+    }
+
+    /// Mean square of both channels from `from_s` to `to_s`.
+    fn energy(&self, from_s: f64, to_s: f64) -> f64 {
+        let (a, b) = (self.index(from_s), self.index(to_s));
+        let sum: f64 = (a..b).map(|i| f64::from(self.left[i]).powi(2) + f64::from(self.right[i]).powi(2)).sum();
+        sum / (2 * (b - a).max(1)) as f64
+    }
+
+    fn first_sound(&self) -> Option<usize> {
+        self.left.iter().zip(&self.right).position(|(&l, &r)| l != 0.0 || r != 0.0)
+    }
+
+    /// The strongest frequency within a semitone of `near_hz` between `from_s` and `to_s`.
+    fn pitch_hz(&self, from_s: f64, to_s: f64, near_hz: f64) -> f64 {
+        let mono = self.mono();
+        let x = &mono[self.index(from_s)..self.index(to_s)];
+        let n = x.len() as f64;
+        let hann = |i: usize| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n).cos();
+        let windowed: Vec<f64> = x.iter().enumerate().map(|(i, &v)| hann(i) * v).collect();
+        let fs = f64::from(self.sample_rate_hz);
+        let power = |f_hz: f64| dft_power(&windowed, f_hz / fs);
+        let scan = |lo: f64, hi: f64, step: f64| {
+            let steps = ((hi - lo) / step).ceil() as usize;
+            (0..=steps)
+                .map(|i| lo + i as f64 * step)
+                .map(|f| (f, power(f)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap()
+                .0
+        };
+        let semitone = 2f64.powf(1.0 / 12.0);
+        let coarse = scan(near_hz / semitone, near_hz * semitone, 0.25);
+        scan(coarse - 0.5, coarse + 0.5, 0.01)
+    }
+}
+
+/// Power of `x` at `f` cycles per sample.
+fn dft_power(x: &[f64], f: f64) -> f64 {
+    let (mut re, mut im) = (0.0, 0.0);
+    let step = (std::f64::consts::TAU * f).sin_cos();
+    let (mut s, mut c) = (0.0f64, 1.0f64);
+    for &v in x {
+        re += v * c;
+        im -= v * s;
+        (s, c) = (s * step.1 + c * step.0, c * step.1 - s * step.0);
+    }
+    re * re + im * im
+}
+
+fn cents(f_hz: f64, reference_hz: f64) -> f64 {
+    1200.0 * (f_hz / reference_hz).log2()
+}
+
+/// A scratch directory with the output path inside it.
+struct Scratch {
+    dir: tempfile::TempDir,
+}
+
+impl Scratch {
+    fn new() -> Self {
+        Self { dir: tempfile::tempdir().unwrap() }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn out(&self) -> PathBuf {
+        self.path("out.wav")
+    }
+
+    /// Render `song` to out.wav with `extra` arguments.
+    fn render(&self, song: &Path, extra: &[&str]) -> Output {
+        let out = self.out();
+        let mut args = vec!["render", path_str(song), "--out", path_str(&out)];
+        args.extend_from_slice(extra);
+        struck(&args)
+    }
+
+    /// Render and read the WAV; the run must succeed.
+    fn wav(&self, song: &Path, extra: &[&str]) -> Wav {
+        let out = self.render(song, extra);
+        assert!(out.status.success(), "struck render failed: {}", stderr(&out));
+        Wav::read(&self.out())
+    }
+
+    /// Files in the directory other than `keep`.
+    fn others(&self, keep: &[&str]) -> Vec<String> {
+        std::fs::read_dir(self.dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| !keep.contains(&n.as_str()))
+            .collect()
+    }
+}
+
+#[test]
+fn midi_files_are_what_their_generator_writes() {
+    let regenerate = std::env::var_os("STRUCK_REGENERATE_MIDI").is_some();
+    let sets = [(midi_gen::test_dir(), midi_gen::test_files()), (demo_songs::demo_dir(), demo_songs::all())];
+    for (dir, files) in sets {
+        for (name, bytes) in files {
+            let path = dir.join(name);
+            if regenerate {
+                std::fs::create_dir_all(&dir).unwrap();
+                std::fs::write(&path, &bytes).unwrap();
+            } else {
+                let on_disk = std::fs::read(&path).unwrap_or_default();
+                assert!(
+                    on_disk == bytes,
+                    "{} differs from its generator; regenerate with \
+                     STRUCK_REGENERATE_MIDI=1 cargo test -p struck-tests --test render",
+                    path.display()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn help_describes_render() {
+    let help = stdout(&struck(&["render", "--help"]));
+    for expected in
+        ["--out", "--instrument", "--preset", "--sample-rate", "--tail-s", "--block-size", "-q", "exit status 2"]
+    {
+        assert!(help.contains(expected), "render --help lacks {expected}: {help}");
+    }
+    assert!(stdout(&struck(&["--help"])).contains("render"));
+}
+
+/// A4 from 0.5 s to 1.5 s, rendered with a 1 s tail: exactly 2.5 s, nothing before
+/// the strike, sound after it, and a one-line summary.
+#[test]
+fn renders_a_note_at_its_time_for_the_tail_asked() {
+    let scratch = Scratch::new();
+    let out = scratch.render(&midi("a4.mid"), &["--tail-s", "1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = stdout(&out);
+    assert_eq!(summary.lines().count(), 1, "{summary}");
+    assert!(summary.contains("a4.mid") && summary.contains("piano") && summary.contains("real time"), "{summary}");
+    let wav = Wav::read(&scratch.out());
+    assert_eq!(wav.sample_rate_hz, 48_000);
+    assert_eq!(wav.len(), 120_000, "1.5 s to the last event + 1 s");
+    let first = wav.first_sound().expect("some sound");
+    assert!((24_000..24_000 + 48).contains(&first), "the strike at 0.5 s sounds from sample {first}");
+    let peak = wav.left.iter().chain(&wav.right).fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!(peak > 1e-3 && peak < 4.0, "peak {peak}");
+    assert!(wav.energy(0.6, 1.4) > 1e-8, "the note sounds while held");
+    assert!(scratch.others(&["out.wav"]).is_empty(), "{:?}", scratch.others(&["out.wav"]));
+    assert!(wav.left != wav.right, "stereo, not mono twice");
+}
+
+#[test]
+fn quiet_prints_nothing() {
+    let scratch = Scratch::new();
+    let out = scratch.render(&midi("a4.mid"), &["--tail-s", "0", "-q"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).is_empty() && stderr(&out).is_empty());
+    assert_eq!(Wav::read(&scratch.out()).len(), 72_000);
+}
+
+/// The fundamental of A4 is at 440 Hz on every instrument (each string is tuned by
+/// its first partial, so the stretch of the higher partials does not move it).
+#[test]
+fn a4_sounds_at_440_hz() {
+    let scratch = Scratch::new();
+    for instrument in ["piano", "santoor", "clavichord", "harpsichord"] {
+        let wav = scratch.wav(&midi("a4.mid"), &["--tail-s", "0", "--instrument", instrument]);
+        let f = wav.pitch_hz(0.6, 1.45, 440.0);
+        assert!(cents(f, 440.0).abs() < 5.0, "{instrument}: A4 at {f:.3} Hz ({:+.2} cents)", cents(f, 440.0));
+    }
+}
+
+/// With the wheel fully up and the default bend range of 2 semitones, A4 sounds as B4;
+/// a preset's range of 1 semitone gives A#4.
+#[test]
+fn pitch_bend_shifts_the_pitch() {
+    let scratch = Scratch::new();
+    let b4 = 440.0 * 2f64.powf(2.0 / 12.0);
+    let wav = scratch.wav(&midi("a4-bend-up.mid"), &["--tail-s", "0"]);
+    let f = wav.pitch_hz(0.6, 1.45, b4);
+    assert!(cents(f, b4).abs() < 5.0, "bent A4 at {f:.3} Hz, B4 is {b4:.3} Hz");
+
+    let preset = scratch.path("bend.json");
+    std::fs::write(&preset, r#"{"controls": {"bend_range_semitones": 1}}"#).unwrap();
+    let a_sharp = 440.0 * 2f64.powf(1.0 / 12.0);
+    let wav = scratch.wav(&midi("a4-bend-up.mid"), &["--tail-s", "0", "--preset", path_str(&preset)]);
+    let f = wav.pitch_hz(0.6, 1.45, a_sharp);
+    assert!(cents(f, a_sharp).abs() < 5.0, "bent A4 at {f:.3} Hz, A#4 is {a_sharp:.3} Hz");
+}
+
+/// C4 released at 0.5 s: with the sustain pedal down it rings on; without, the
+/// damper stops it.
+#[test]
+fn sustain_pedal_holds_a_released_note() {
+    let scratch = Scratch::new();
+    let held = scratch.wav(&midi("c4-release-pedal.mid"), &["--tail-s", "1.5"]);
+    let dry = scratch.wav(&midi("c4-release-dry.mid"), &["--tail-s", "1.5"]);
+    assert_eq!(held.len(), dry.len());
+    // While the key is down the two are the same note.
+    let (before_held, before_dry) = (held.energy(0.15, 0.45), dry.energy(0.15, 0.45));
+    assert!((before_held / before_dry - 1.0).abs() < 0.5, "{before_held} vs {before_dry}");
+    let (after_held, after_dry) = (held.energy(1.0, 2.0), dry.energy(1.0, 2.0));
+    assert!(after_held > 100.0 * after_dry, "after release: {after_held:e} with the pedal, {after_dry:e} without");
+    assert!(after_held > 0.01 * before_held, "the pedalled note still rings: {after_held:e} vs {before_held:e}");
+}
+
+/// All sound off (CC120) silences a pedalled chord within milliseconds.
+#[test]
+fn all_sound_off_silences() {
+    let scratch = Scratch::new();
+    let wav = scratch.wav(&midi("chord-all-sound-off.mid"), &["--tail-s", "0"]);
+    let before = wav.energy(0.3, 0.5);
+    let after = wav.energy(0.55, 1.0);
+    assert!(after < 1e-6 * before, "{after:e} after all sound off, {before:e} before");
+}
+
+/// Format 1 with a tempo track: 120 bpm for two beats, then 60 bpm; C4 on beat 3
+/// starts at 2.0 s and its release on beat 4 at 3.0 s is the last event.
+#[test]
+fn tempo_changes_move_the_notes() {
+    let scratch = Scratch::new();
+    let wav = scratch.wav(&midi("tempo-map.mid"), &["--tail-s", "0.5"]);
+    assert_eq!(wav.len(), 168_000);
+    let first = wav.first_sound().expect("sound");
+    assert!((96_000..96_048).contains(&first), "first sound at sample {first}");
+}
+
+/// SMPTE timing (25 frames of 40 ticks a second) at 44.1 kHz.
+#[test]
+fn smpte_timing_is_played() {
+    let scratch = Scratch::new();
+    let wav = scratch.wav(&midi("smpte-25fps.mid"), &["--tail-s", "0.25", "--sample-rate", "44100"]);
+    assert_eq!(wav.sample_rate_hz, 44_100);
+    assert_eq!(wav.len(), 44_100);
+    let first = wav.first_sound().expect("sound");
+    assert!((11_025..11_025 + 45).contains(&first), "first sound at sample {first}");
+}
+
+#[test]
+fn renders_are_bit_identical_for_any_block_size() {
+    let scratch = Scratch::new();
+    let song = midi("chord-all-sound-off.mid");
+    let render = |block: &str| {
+        let out = scratch.render(&song, &["--tail-s", "0.2", "--block-size", block, "-q"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        std::fs::read(scratch.out()).unwrap()
+    };
+    let reference = render("64");
+    assert_eq!(render("64"), reference, "two runs differ");
+    assert_eq!(render("1"), reference, "block size 1");
+    assert_eq!(render("4096"), reference, "block size 4096");
+    assert_eq!(render("8192"), reference, "block size 8192");
+}
+
+/// Channel 10 (General MIDI drums) is left out unless asked for.
+#[test]
+fn channel_10_is_ignored_unless_included() {
+    let scratch = Scratch::new();
+    let song = midi("channel-10-only.mid");
+    assert_refused(&scratch, &song, &[], "channel 10");
+    let wav = scratch.wav(&song, &["--tail-s", "0.1", "--include-channel-10"]);
+    assert!(wav.energy(0.1, 0.5) > 0.0);
+}
+
+/// --instrument overrides the preset's; the preset's is used without it.
+#[test]
+fn preset_names_the_instrument_unless_overridden() {
+    let scratch = Scratch::new();
+    let preset = scratch.path("santoor.json");
+    std::fs::write(
+        &preset,
+        r#"{"instrument": "santoor", "voicing": {"damping": 2.0}, "controls": {"output_gain": 0.5}}"#,
+    )
+    .unwrap();
+    let song = midi("a4.mid");
+    let out = scratch.render(&song, &["--tail-s", "0", "--preset", path_str(&preset)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("santoor"), "{}", stdout(&out));
+    let out = scratch.render(&song, &["--tail-s", "0", "--preset", path_str(&preset), "--instrument", "clavichord"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("clavichord"), "{}", stdout(&out));
+}
+
+/// Notes outside the instrument's keys are reported; a song with none inside is refused.
+#[test]
+fn notes_outside_the_instrument_are_named() {
+    let scratch = Scratch::new();
+    assert_refused(&scratch, &midi("a0.mid"), &["--instrument", "santoor"], "santoor's keys");
+    let wav = scratch.wav(&midi("a0.mid"), &["--tail-s", "0.1"]);
+    assert!(wav.energy(0.1, 0.5) > 0.0, "the piano has A0");
+}
+
+/// Refused: status 2, one line on stderr that names `what`, nothing on stdout, no
+/// WAV written (nor any temporary file left), and an existing WAV left as it was.
+fn assert_refused(scratch: &Scratch, song: &Path, extra: &[&str], what: &str) {
+    let out_path = scratch.out();
+    let _ = std::fs::remove_file(&out_path);
+    let inputs: Vec<String> = scratch.others(&[]);
+    let keep: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    for existing in [false, true] {
+        if existing {
+            std::fs::write(&out_path, b"an earlier render").unwrap();
+        }
+        let out = scratch.render(song, extra);
+        let message = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {message}");
+        assert_eq!(message.lines().count(), 1, "one line: {message:?}");
+        assert!(message.starts_with("struck render: "), "{message:?}");
+        assert!(message.contains(what), "{message:?} should name {what:?}");
+        assert!(stdout(&out).is_empty());
+        if existing {
+            assert_eq!(std::fs::read(&out_path).unwrap(), b"an earlier render", "the existing file is kept");
+            std::fs::remove_file(&out_path).unwrap();
+        } else {
+            assert!(!out_path.exists(), "no WAV may be written");
+        }
+        assert!(scratch.others(&keep).is_empty(), "left behind: {:?}", scratch.others(&keep));
+    }
+}
+
+#[test]
+fn refuses_bad_songs() {
+    let scratch = Scratch::new();
+    assert_refused(&scratch, &scratch.path("missing.mid"), &[], "missing.mid");
+
+    let text = scratch.path("notes.mid");
+    std::fs::write(&text, "C4 E4 G4\n").unwrap();
+    assert_refused(&scratch, &text, &[], "not a MIDI file");
+
+    let whole = std::fs::read(midi("tempo-map.mid")).unwrap();
+    let cut = scratch.path("cut.mid");
+    std::fs::write(&cut, &whole[..whole.len() - 10]).unwrap();
+    assert_refused(&scratch, &cut, &[], "truncated");
+    std::fs::write(&cut, &whole[..10]).unwrap();
+    assert_refused(&scratch, &cut, &[], "truncated");
+
+    assert_refused(&scratch, &midi("format-2.mid"), &[], "format 2");
+    assert_refused(&scratch, &midi("no-notes.mid"), &[], "no notes");
+}
+
+#[test]
+fn refuses_bad_arguments() {
+    let scratch = Scratch::new();
+    let song = midi("a4.mid");
+    for (args, named) in [
+        (&["--sample-rate", "8000"][..], "--sample-rate"),
+        (&["--sample-rate", "200000"], "--sample-rate"),
+        (&["--sample-rate", "44100.5"], "--sample-rate"),
+        (&["--tail-s", "-1"], "--tail-s"),
+        (&["--tail-s", "601"], "--tail-s"),
+        (&["--tail-s", "NaN"], "--tail-s"),
+        (&["--block-size", "0"], "--block-size"),
+        (&["--block-size", "8193"], "--block-size"),
+        (&["--instrument", "organ"], "organ"),
+        (&["--preset", "no-such-preset.json"], "no-such-preset.json"),
+    ] {
+        assert_refused(&scratch, &song, args, named);
+    }
+}
+
+#[test]
+fn refuses_bad_presets() {
+    let scratch = Scratch::new();
+    let song = midi("a4.mid");
+    let preset = scratch.path("preset.json");
+    for (text, named) in [
+        (r#"{"instrument": "organ"}"#, "instrument"),
+        (r#"{"voicing": {"hammer_mas": 2}}"#, "voicing.hammer_mas"),
+        (r#"{"voicing": {"damping": -1}}"#, "voicing.damping"),
+        (r#"{"controls": {"polyphony": "all"}}"#, "controls.polyphony"),
+        (r#"{"controls": {"touch_max": 3}}"#, "controls.touch_max"),
+        (r#"{"tempo": 1}"#, "tempo"),
+        ("{", "JSON"),
+    ] {
+        std::fs::write(&preset, text).unwrap();
+        let out = scratch.render(&song, &["--preset", path_str(&preset)]);
+        let message = stderr(&out);
+        assert!(message.contains("preset.json"), "{text}: {message}");
+        assert_refused(&scratch, &song, &["--preset", path_str(&preset)], named);
+    }
+}
+
+/// A WAV that cannot be put in place (the name is taken by a directory) fails
+/// with status 1 and leaves nothing behind.
+#[test]
+fn a_failed_write_leaves_nothing() {
+    let scratch = Scratch::new();
+    std::fs::create_dir(scratch.out()).unwrap();
+    let out = scratch.render(&midi("a4.mid"), &["--tail-s", "0"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
+    assert!(scratch.out().is_dir());
+    assert!(scratch.others(&["out.wav"]).is_empty(), "{:?}", scratch.others(&["out.wav"]));
+}

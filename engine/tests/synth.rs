@@ -266,3 +266,19 @@ fn any_sample_rate_gives_the_same_note() {
         assert!(db.abs() < 1.0, "{fs} Hz: level {db:.2} dB from 48 kHz");
     }
 }
+
+#[test]
+fn the_live_view_shows_the_strike_and_the_output() {
+    let (mut s, mut scope) =
+        Synth::new(Box::new(Instrument::build(&default_settings(InstrumentKind::Piano, FS)).unwrap()));
+    let out = render(&mut s, 0.1, &[(0.01, Event::NoteOn { key: 48, velocity: 0.9 })], 256);
+    let frame = scope.latest().expect("a frame within 0.1 s").clone();
+    assert_eq!(frame.midi_key, 48);
+    assert!(frame.contact_len > 100 && frame.contact_n[..frame.contact_len].iter().any(|f| *f > 1.0));
+    assert!(frame.strike_force_n > 1.0 && frame.strike_hammer.is_some(), "no picture at peak contact");
+    assert!(frame.shape_m.iter().any(|y| y.abs() > 0.0));
+    let mut samples = Vec::new();
+    scope.drain_samples(&mut samples);
+    assert_eq!(samples.len(), out.len());
+    assert!(samples.iter().zip(&out).all(|(a, b)| (a - b).abs() < 1e-6));
+}

@@ -76,6 +76,12 @@ impl Key {
         })
     }
 
+    /// The string the live view shows: the last of the course, which the hammer
+    /// strikes even under una corda.
+    pub fn watched_string(&self) -> &StruckString {
+        self.strings.last().expect("a key has at least one string")
+    }
+
     /// The key goes down at exciter speed (or pluck height) `touch`.
     pub fn press(&mut self, touch: f64, una_corda: bool, bend: f64) {
         self.active = true;

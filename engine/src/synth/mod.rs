@@ -428,7 +428,7 @@ impl Synth {
             self.retire(old);
         }
         if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {
-            self.scope.control(key.midi_key, &key.strings[0]);
+            self.scope.control(key.midi_key, key.watched_string());
         }
     }
 
@@ -442,8 +442,12 @@ impl Synth {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
                 let mono = &mut self.mono[..n];
                 mono.fill(0.0);
-                let contact = if scope_key == Some(key.midi_key) { self.scope.contact_slots(n) } else { None };
+                let watched = scope_key == Some(key.midi_key);
+                let contact = if watched { self.scope.contact_slots(n) } else { None };
                 key.render(mono, contact);
+                if watched {
+                    self.scope.during_contact(key.watched_string());
+                }
                 for t in 0..n {
                     let v = mono[t] * key.gain_per_n * key.fade;
                     mix_l[t] += v * key.pan_left;

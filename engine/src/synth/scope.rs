@@ -28,6 +28,13 @@ pub struct ScopeFrame {
     pub shape_m: [f32; SHAPE_POINTS],
     /// The hammer: where along the string (fraction of the length) and its height, m.
     pub hammer: Option<(f32, f32)>,
+    /// The string and hammer at the moment of the largest contact force seen since
+    /// the strike (the seed's Fig. 2 as it happens), and that force, N (0: none yet).
+    pub strike_shape_m: [f32; SHAPE_POINTS],
+    pub strike_hammer: Option<(f32, f32)>,
+    pub strike_force_n: f32,
+    /// Time of that moment after the strike, s.
+    pub strike_time_s: f32,
     /// Summed contact force over the key's strings, one value per sample from the strike, N.
     pub contact_n: [f32; CONTACT_SAMPLES],
     /// How many of `contact_n` are filled.
@@ -42,6 +49,10 @@ impl Default for ScopeFrame {
             length_m: 1.0,
             shape_m: [0.0; SHAPE_POINTS],
             hammer: None,
+            strike_shape_m: [0.0; SHAPE_POINTS],
+            strike_hammer: None,
+            strike_force_n: 0.0,
+            strike_time_s: 0.0,
             contact_n: [0.0; CONTACT_SAMPLES],
             contact_len: 0,
         }
@@ -87,6 +98,10 @@ pub(super) struct ScopeWriter {
     contact: [f32; CONTACT_SAMPLES],
     contact_len: usize,
     since_frame: usize,
+    strike_shape_m: [f32; SHAPE_POINTS],
+    strike_hammer: Option<(f32, f32)>,
+    strike_force_n: f32,
+    strike_time_s: f32,
 }
 
 pub(super) fn channel() -> (ScopeWriter, Scope) {
@@ -105,6 +120,10 @@ pub(super) fn channel() -> (ScopeWriter, Scope) {
         contact: [0.0; CONTACT_SAMPLES],
         contact_len: 0,
         since_frame: 0,
+        strike_shape_m: [0.0; SHAPE_POINTS],
+        strike_hammer: None,
+        strike_force_n: 0.0,
+        strike_time_s: 0.0,
     };
     let reader = Scope { frames: frames_rx, returns: returns_tx, samples: samples_rx, latest: None };
     (writer, reader)
@@ -119,6 +138,24 @@ impl ScopeWriter {
     pub fn struck(&mut self, midi_key: u8) {
         self.key = Some(midi_key);
         self.contact_len = 0;
+        self.strike_force_n = 0.0;
+        self.strike_hammer = None;
+    }
+
+    /// While the strike is being recorded: keep a picture of the string whenever
+    /// its contact force is the largest yet (called after each rendered chunk).
+    pub fn during_contact(&mut self, string: &StruckString) {
+        if self.contact_len == 0 || self.contact_len >= CONTACT_SAMPLES || !string.in_contact() {
+            return;
+        }
+        let tick = string.current();
+        let force = tick.contact_force_n as f32;
+        if force > self.strike_force_n {
+            self.strike_force_n = force;
+            self.strike_time_s = (self.contact_len as f64 / string.sample_rate_hz()) as f32;
+            string.shape_m(&mut self.strike_shape_m);
+            self.strike_hammer = string.hammer().map(|h| (h.spec.position as f32, h.position_m as f32));
+        }
     }
 
     /// Room for the contact force of the next `n` samples (zeroed), while recording.
@@ -158,6 +195,10 @@ impl ScopeWriter {
         let len = self.contact_len.min(CONTACT_SAMPLES);
         frame.contact_n[..len].copy_from_slice(&self.contact[..len]);
         frame.contact_len = len;
+        frame.strike_shape_m = self.strike_shape_m;
+        frame.strike_hammer = self.strike_hammer;
+        frame.strike_force_n = self.strike_force_n;
+        frame.strike_time_s = self.strike_time_s;
         if let Some(frame) = self.frame.take()
             && let Err(rtrb::PushError::Full(frame)) = self.frames.push(frame)
         {

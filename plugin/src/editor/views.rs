@@ -150,7 +150,14 @@ pub fn string_view(ui: &mut Ui, frame: Option<&ScopeFrame>, size: Vec2) {
         return;
     };
     let hammer = frame.hammer;
-    let peak = frame.shape_m.iter().map(|y| y.abs()).chain(hammer.map(|(_, h)| h.abs())).fold(0.0f32, f32::max);
+    let peak = frame
+        .shape_m
+        .iter()
+        .chain(frame.strike_shape_m.iter())
+        .map(|y| y.abs())
+        .chain(hammer.map(|(_, h)| h.abs()))
+        .chain(frame.strike_hammer.map(|(_, h)| h.abs()))
+        .fold(0.0f32, f32::max);
     let scale = (1.25 * peak).max(1e-9);
     let mid = rect.center().y;
     let half = 0.5 * rect.height() - 14.0;
@@ -159,6 +166,27 @@ pub fn string_view(ui: &mut Ui, frame: Option<&ScopeFrame>, size: Vec2) {
     let points: Vec<Pos2> =
         frame.shape_m.iter().enumerate().map(|(i, &y)| to_screen(i as f32 / (SHAPE_POINTS - 1) as f32, y)).collect();
     painter.add(Shape::line(points, Stroke::new(2.0, STRING_COLOUR)));
+    if let Some((position, height_m)) = frame.strike_hammer {
+        // The moment of the largest contact force of the last strike, drawn faintly behind.
+        let faint = STRING_COLOUR.gamma_multiply(0.35);
+        let points: Vec<Pos2> = frame
+            .strike_shape_m
+            .iter()
+            .enumerate()
+            .map(|(i, &y)| to_screen(i as f32 / (SHAPE_POINTS - 1) as f32, y))
+            .collect();
+        painter.add(Shape::line(points, Stroke::new(1.5, faint)));
+        let face = to_screen(position, height_m);
+        let block = Rect::from_min_max(pos2(face.x - 6.0, face.y), pos2(face.x + 6.0, face.y + 16.0));
+        painter.rect_filled(block, 2.0, HAMMER_COLOUR.gamma_multiply(0.5));
+        painter.text(
+            rect.center_top(),
+            Align2::CENTER_TOP,
+            format!("faint: at peak contact, {:.1} N after {:.2} ms", frame.strike_force_n, frame.strike_time_s * 1e3),
+            small(),
+            AXIS_TEXT,
+        );
+    }
     if let Some((position, height_m)) = hammer {
         // The felt's face at the hammer's height, its body behind it (y grows the way it pushes).
         let face = to_screen(position, height_m);

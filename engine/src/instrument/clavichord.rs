@@ -24,8 +24,8 @@
 use std::ops::RangeInclusive;
 
 use super::common::{
-    BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Losses, Table, TangentLeak, damper, detuned_hz, flexible_tension_n, pan,
-    unison_cents, wire_mass_per_length_kg_m, with_losses,
+    BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Level, Losses, Table, TangentLeak, damper, detuned_hz, flexible_tension_n,
+    pan, unison_cents, wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
 use crate::damping::Damping;
@@ -63,8 +63,18 @@ const LOSSES: Losses = Losses {
 /// Widest detuning of the pair, cents.
 const UNISON_SPREAD_CENTS: f64 = 1.0;
 
-/// Peak output the loudest touch should give on a mid-range key.
-const PEAK_TARGET: f64 = 0.4;
+/// Output level (see [`Level`]). The clavichord is the quietest of the four: its
+/// ringing at velocity 0.7 is aimed at -30 dBFS, 2 to 6 dB under the others'.
+///
+/// Relative to the peak, the ringing falls from -19.5 dB at C2 to -27.3 dB at E6
+/// (within 0.3 dB of every key); the peak runs 0.3 dB (bass) to 2.4 dB (treble)
+/// under the estimate. The loudest touch peaks at -9.5 to -2.5 dBFS: the cap
+/// never applies.
+pub(super) const LEVEL: Level = Level {
+    ring_target_dbfs: -30.0,
+    ring_db: Table(&[(36, -19.5), (48, -20.1), (60, -22.0), (72, -23.3), (88, -27.3)]),
+    peak_excess_db: Table(&[(36, -0.3), (44, -0.5), (62, -1.6), (78, -2.1), (88, -2.3)]),
+};
 
 /// The gauges, mm, each with the last key it is strung on.
 const GAUGES: [(u8, f64); 9] =
@@ -111,7 +121,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         exciter: ExciterDesign::Tangent { displacement_m },
         // The listing felt takes over as soon as the tangent leaves: 60 dB in 0.1 s.
         damper: Some(damper(0.1, 1.0e-2, f1_hz, 0.005)),
-        gain_per_n: PEAK_TARGET / (STRINGS as f64 * peak_per_string_n),
+        gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

@@ -25,7 +25,7 @@
 use std::ops::RangeInclusive;
 
 use super::common::{
-    BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Losses, Table, damper, flexible_tension_n, pan, voiced_position,
+    BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Level, Losses, Table, damper, flexible_tension_n, pan, voiced_position,
     wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
@@ -77,8 +77,17 @@ const TARGET_DIAMETER_M: Table = Table(&[(36, 0.52e-3), (86, 0.20e-3)]);
 /// 60 dB decay of about 18 s, and c''' about 4 s.
 const LOSSES: Losses = Losses { internal_loss_factor: 5.0e-4, bridge_admittance_s_kg: 5.0e-3, tangent: None };
 
-/// Peak output the highest pluck should give on a mid-range key.
-const PEAK_TARGET: f64 = 0.4;
+/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -24 dBFS.
+///
+/// Relative to the peak, the ringing rises from -14.7 dB at C2 to -9.2 dB at c''
+/// and eases to -10.1 dB at d''' (within 0.2 dB of every key); the peak runs up to
+/// 1 dB over the estimate at the top. The highest pluck peaks at -13 to -6.5 dBFS:
+/// the cap never applies.
+pub(super) const LEVEL: Level = Level {
+    ring_target_dbfs: -24.0,
+    ring_db: Table(&[(36, -14.7), (41, -14.5), (48, -13.0), (60, -10.5), (72, -9.2), (80, -9.3), (86, -10.1)]),
+    peak_excess_db: Table(&[(36, 0.2), (60, 0.3), (86, 1.1)]),
+};
 
 /// Wire diameter, m.
 fn gauge_m(midi_key: u8) -> f64 {
@@ -120,7 +129,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         exciter: ExciterDesign::Pluck { position: voiced_position(position, voicing) },
         // The jack's cloth damper: 60 dB in 0.2 s.
         damper: Some(damper(0.2, 5.0e-3, f1_hz, 0.01)),
-        gain_per_n: PEAK_TARGET / peak_n,
+        gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

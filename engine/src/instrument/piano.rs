@@ -20,8 +20,8 @@
 use std::ops::RangeInclusive;
 
 use super::common::{
-    Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, damper, detuned_hz, flexible_tension_n, pan, struck_peak_n,
-    unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
+    Level, Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, damper, detuned_hz, flexible_tension_n, pan,
+    struck_peak_n, unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
 use crate::contact::ContactLaw;
@@ -77,8 +77,36 @@ const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_
 /// Widest detuning in a unison, cents (tuners leave unisons within about 1-2 cents).
 const UNISON_SPREAD_CENTS: f64 = 1.0;
 
-/// Peak output the loudest touch should give on a mid-range key.
-const PEAK_TARGET: f64 = 0.4;
+/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -28 dBFS.
+/// The loudest touch peaks some 24 dB above that ringing in the middle (11 dB of
+/// it the touch: velocity 1 strikes 3.6 times as fast), so the middle could ring
+/// at -25 dBFS at most; the bass, panned left, peaks 2 to 2.6 dB higher in that
+/// channel. -28 keeps the middle near its most and the bass (capped from A0 to
+/// C#2, ringing at -30.7 to -28.3 dBFS) within 3 dB of it.
+///
+/// Relative to the peak, the ringing is flat near -24 dB from C2 to C5 and falls
+/// away in the treble (-31 dB at C6, -54 dB at C7, -67 dB at C8): the heavy
+/// hammer stays on the string for more and more of a period, so its push on the
+/// bridge during contact sets the peak while less and less of its energy is left
+/// ringing. From C5 up the peak ceiling caps the gain and the ringing falls short
+/// of the target: -29.7 dBFS at F5, -31 at G5, -35.5 at C6, -54 at C7, -59 to -73
+/// above it (the fit is then rough, 12 dB off at D#7, but the cap decides). The
+/// peak excess follows the real peak within 0.3 dB where the cap applies (it is
+/// up to 1 dB high around the 2-3 string break, where the cap does not apply).
+pub(super) const LEVEL: Level = Level {
+    ring_target_dbfs: -28.0,
+    ring_db: Table(&[
+        (21, -26.5),
+        (36, -24.4),
+        (48, -23.2),
+        (60, -24.0),
+        (72, -26.3),
+        (84, -30.7),
+        (96, -54.3),
+        (108, -66.9),
+    ]),
+    peak_excess_db: Table(&[(21, -0.2), (29, 0.5), (40, 0.1), (76, -0.95), (108, -0.95)]),
+};
 
 /// Number of strings of a key.
 pub(super) fn strings_per_key(midi_key: u8) -> usize {
@@ -149,7 +177,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
             let t = (midi_key - KEYS.start()) as f64 / (LAST_DAMPED_KEY - KEYS.start()) as f64;
             damper(0.45 * (0.15f64 / 0.45).powf(t), 2.0e-3, f1_hz, 0.015)
         }),
-        gain_per_n: PEAK_TARGET / peak_n,
+        gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

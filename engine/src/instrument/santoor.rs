@@ -18,7 +18,7 @@
 use std::ops::RangeInclusive;
 
 use super::common::{
-    Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, detuned_hz, flexible_tension_n, pan, struck_peak_n,
+    Level, Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, detuned_hz, flexible_tension_n, pan, struck_peak_n,
     unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
@@ -53,8 +53,21 @@ const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_
 /// Widest detuning in a course, cents.
 const UNISON_SPREAD_CENTS: f64 = 2.0;
 
-/// Peak output the loudest touch should give on a mid-range key.
-const PEAK_TARGET: f64 = 0.4;
+/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -26 dBFS.
+/// Up to A4 the loudest touch peaks 22 to 23 dB above that ringing, so the middle
+/// could ring some 1.5 dB louder before meeting the peak ceiling, but the capped
+/// treble would then fall out of 3 dB of it three keys sooner.
+///
+/// Relative to the peak, the ringing falls from -20 dB at E3 to -25 dB at E5 and
+/// -33 dB at F6 (in steps of about 1.5 dB every third key above A4, which the fit
+/// smooths over, within 0.9 dB), as the short treble strings ring off faster.
+/// From D5 up the peak ceiling caps the gain and the ringing falls short of the
+/// target: -28.5 dBFS at E5, -30 at G5, -32 at A#5, -34 at C6, -36 from D#6.
+pub(super) const LEVEL: Level = Level {
+    ring_target_dbfs: -26.0,
+    ring_db: Table(&[(52, -19.8), (60, -20.4), (68, -21.9), (76, -24.9), (84, -29.6), (89, -32.6)]),
+    peak_excess_db: Table(&[(52, 0.4), (72, 0.3), (89, 0.0)]),
+};
 
 /// Speaking length, m.
 fn length_m(midi_key: u8) -> f64 {
@@ -100,7 +113,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
             position: voiced_position(position, voicing),
         },
         damper: None,
-        gain_per_n: PEAK_TARGET / peak_n,
+        gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

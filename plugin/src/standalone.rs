@@ -79,6 +79,7 @@ pub fn run(args: Vec<String>) -> ExitCode {
         return ExitCode::FAILURE;
     }
     STANDALONE.store(true, Ordering::Relaxed);
+    start_stop_watchdog();
     if nice_plug::prelude::nice_export_standalone_with_args::<StruckPlugin, _>(args) {
         ExitCode::SUCCESS
     } else {
@@ -246,6 +247,46 @@ impl Drop for QuietAlsa {
         unsafe {
             snd_lib_error_set_handler(None);
         }
+    }
+}
+
+/// How long the backend may take to stop after a stop signal.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(3);
+
+/// nice-plug 0.4.2's JACK backend can deadlock while stopping (its process callback
+/// returns Quit while the main thread deactivates the client; both then wait on the
+/// server's socket). A signal must still stop the program: once one has arrived,
+/// this thread ends the process if the backend has not returned within [`STOP_GRACE`].
+fn start_stop_watchdog() {
+    let spawned = std::thread::Builder::new().name("struck-stop-watchdog".into()).spawn(|| {
+        // nice-plug installs its handler as the standalone starts: chain onto it once it is there.
+        for _ in 0..500 {
+            if handler_installed(libc::SIGTERM) {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        watch_stop_signals();
+        while !stop_requested() {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        std::thread::sleep(STOP_GRACE);
+        eprintln!("struck: the audio backend did not stop within {} s of the signal; exiting", STOP_GRACE.as_secs());
+        // SAFETY: ends the process at once; nothing is left half-written (the standalone writes no files).
+        unsafe { libc::_exit(0) }
+    });
+    if let Err(e) = spawned {
+        eprintln!("struck: cannot start the stop watchdog: {e}");
+    }
+}
+
+fn handler_installed(signal: libc::c_int) -> bool {
+    // SAFETY: reading the current disposition with valid pointers.
+    unsafe {
+        let mut current: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(signal, std::ptr::null(), &mut current) == 0
+            && current.sa_sigaction != libc::SIG_DFL
+            && current.sa_sigaction != libc::SIG_IGN
     }
 }
 

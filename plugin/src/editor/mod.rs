@@ -31,6 +31,7 @@ pub const HEIGHT: f64 = 660.0;
 const PARAMS_WIDTH: f32 = 340.0;
 /// Time between repaints while the panel is open.
 const REPAINT: Duration = Duration::from_millis(33);
+const IDLE_REPAINT: Duration = Duration::from_millis(250);
 
 /// The live view's source: the scope reader of the synth now playing, with its rate.
 pub struct ScopeFeed {
@@ -188,7 +189,9 @@ impl NiceEguiApp for StruckEditor {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
         self.draw(ui);
-        ui.ctx().request_repaint_after(REPAINT);
+        // Animate while there is sound; otherwise look a few times a second (software
+        // OpenGL on a small machine would spend a quarter of a core repainting nothing).
+        ui.ctx().request_repaint_after(if self.live.sounding { REPAINT } else { IDLE_REPAINT });
     }
 }
 

@@ -36,6 +36,8 @@ pub struct LiveView {
     incoming: Vec<f32>,
     history: Vec<f32>,
     fresh_samples: bool,
+    /// The last update brought sound (the panel then animates at full rate).
+    pub sounding: bool,
     window: Vec<f32>,
     fft: Arc<dyn RealToComplex<f32>>,
     fft_in: Vec<f32>,
@@ -58,6 +60,7 @@ impl Default for LiveView {
             incoming: Vec::with_capacity(32 * 1024),
             history: Vec::with_capacity(SPECTRUM_SIZE + 32 * 1024),
             fresh_samples: false,
+            sounding: false,
             fft_in: fft.make_input_vec(),
             fft_out: fft.make_output_vec(),
             fft_scratch: fft.make_scratch_vec(),
@@ -79,6 +82,8 @@ impl LiveView {
         }
         self.incoming.clear();
         scope.drain_samples(&mut self.incoming);
+        // Above -120 dBFS: worth animating.
+        self.sounding = self.incoming.iter().any(|v| v.abs() > 1e-6);
         if !self.incoming.is_empty() {
             self.history.extend_from_slice(&self.incoming);
             if self.history.len() > SPECTRUM_SIZE {

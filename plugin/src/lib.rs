@@ -28,13 +28,6 @@ use crate::params::StruckParams;
 pub const EVENT_CAPACITY: usize = 4096;
 /// CC 121 (reset all controllers) becomes four engine events.
 const MAX_EVENTS_PER_HOST_EVENT: usize = 4;
-/// The MIDI controllers Struck answers.
-const CC_SUSTAIN: u8 = 64;
-const CC_SOSTENUTO: u8 = 66;
-const CC_UNA_CORDA: u8 = 67;
-const CC_ALL_SOUND_OFF: u8 = 120;
-const CC_RESET_ALL_CONTROLLERS: u8 = 121;
-const CC_ALL_NOTES_OFF: u8 = 123;
 /// Keys the synth can sound at once, at most (the polyphony parameter's top).
 pub const MAX_VOICES: u32 = 128;
 
@@ -325,20 +318,9 @@ impl Performer {
             // where it has none), as after a note-off.
             NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => push(Event::NoteOff { key }),
             NoteEvent::Choke { key: Key::Wildcard, .. } => push(Event::Reset),
-            NoteEvent::MidiCC { cc, value, .. } => match cc {
-                CC_SUSTAIN => push(Event::Sustain(value)),
-                CC_SOSTENUTO => push(Event::Sostenuto(value)),
-                CC_UNA_CORDA => push(Event::UnaCorda(value)),
-                CC_ALL_SOUND_OFF => push(Event::Reset),
-                CC_RESET_ALL_CONTROLLERS => {
-                    push(Event::Sustain(0.0));
-                    push(Event::Sostenuto(0.0));
-                    push(Event::UnaCorda(0.0));
-                    push(Event::PitchBend(0.0));
-                }
-                CC_ALL_NOTES_OFF => push(Event::AllNotesOff),
-                _ => {}
-            },
+            NoteEvent::MidiCC { cc, value, .. } => {
+                Event::from_controller(cc, value).into_iter().flatten().for_each(push)
+            }
             NoteEvent::MidiPitchBend { value, .. } => push(Event::PitchBend(pitch_wheel(value))),
             _ => {}
         }
@@ -348,8 +330,7 @@ impl Performer {
 /// nice-plug's pitch bend (the 14-bit value / 16383) as -1..=1 with the
 /// centre (8192) exactly at 0.
 pub fn pitch_wheel(value: f32) -> f32 {
-    let raw = (value.clamp(0.0, 1.0) * 16383.0).round();
-    if raw >= 8192.0 { (raw - 8192.0) / 8191.0 } else { (raw - 8192.0) / 8192.0 }
+    Event::pitch_wheel((value.clamp(0.0, 1.0) * 16383.0).round() as u16)
 }
 
 #[cfg(test)]

@@ -298,34 +298,12 @@ fn events_of(message: midly::MidiMessage) -> impl Iterator<Item = Event> {
             out[0] = Some(Event::NoteOff { key: key.as_int() });
         }
         MidiMessage::Controller { controller, value } => {
-            let v = f32::from(value.as_int()) / 127.0;
-            match controller.as_int() {
-                64 => out[0] = Some(Event::Sustain(v)),
-                66 => out[0] = Some(Event::Sostenuto(v)),
-                67 => out[0] = Some(Event::UnaCorda(v)),
-                120 => out[0] = Some(Event::Reset),
-                121 => {
-                    out = [
-                        Some(Event::Sustain(0.0)),
-                        Some(Event::Sostenuto(0.0)),
-                        Some(Event::UnaCorda(0.0)),
-                        Some(Event::PitchBend(0.0)),
-                    ];
-                }
-                123..=127 => out[0] = Some(Event::AllNotesOff),
-                _ => {}
-            }
+            out = Event::from_controller(controller.as_int(), f32::from(value.as_int()) / 127.0);
         }
-        MidiMessage::PitchBend { bend } => out[0] = Some(Event::PitchBend(bend_position(bend.0.as_int()))),
+        MidiMessage::PitchBend { bend } => out[0] = Some(Event::PitchBend(Event::pitch_wheel(bend.0.as_int()))),
         _ => {}
     }
     out.into_iter().flatten()
-}
-
-/// A 14-bit pitch-wheel value as -1..=1: 0 is -1, 8192 the centre, 16383 is +1.
-pub fn bend_position(raw: u16) -> f32 {
-    let offset = f32::from(raw.min(16_383)) - 8192.0;
-    if offset < 0.0 { offset / 8192.0 } else { offset / 8191.0 }
 }
 
 /// Ticks (weighted by tempo) to samples and seconds.
@@ -362,13 +340,6 @@ impl Clock {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn pitch_wheel_ends_and_centre() {
-        assert_eq!(bend_position(0), -1.0);
-        assert_eq!(bend_position(8192), 0.0);
-        assert_eq!(bend_position(16383), 1.0);
-    }
 
     #[test]
     fn tempo_map_rounds_half_up() {

@@ -35,8 +35,7 @@ fn in_contact(c: &mut Criterion) {
     let mut group = c.benchmark_group("string in contact");
     group.throughput(Throughput::Elements((modes * DEFAULT_SUBSTEPS) as u64));
     group.bench_function(format!("C2, {modes} modes, 8 sub-steps per sample"), |b| {
-        // Time only samples with the hammer on the string; striking again (which
-        // builds the strike's tables) is left out.
+        // Time only samples with the hammer on the string; striking again is left out.
         b.iter_custom(|samples| {
             let mut timed = Duration::ZERO;
             for _ in 0..samples {
@@ -53,5 +52,16 @@ fn in_contact(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, free_modes, in_contact);
+fn instruments(c: &mut Criterion) {
+    let mut group = c.benchmark_group("instrument, chords every 0.2 s with the pedal down");
+    group.sample_size(10);
+    for kind in struck_engine::instrument::InstrumentKind::ALL {
+        // One second of audio per iteration; the figure to read is seconds per second of audio.
+        group.throughput(Throughput::Elements(48_000));
+        group.bench_function(kind.name(), |b| b.iter(|| struck_engine::perf::synth_throughput(kind, 1.0)));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, free_modes, in_contact, instruments);
 criterion_main!(benches);

@@ -135,3 +135,47 @@ pub fn contact_throughput(min_time: Duration) -> (f64, usize) {
     }
     ((steps * modes) as f64 / timed.as_secs_f64(), modes)
 }
+
+/// What a polyphonic workload achieved.
+#[derive(Clone, Copy, Debug)]
+pub struct SynthThroughput {
+    /// Seconds of audio per second of computing, one thread.
+    pub real_time_factor: f64,
+    /// Most keys sounding at once during the run.
+    pub max_keys: usize,
+    /// Time to build the instrument's tables, s.
+    pub build_s: f64,
+}
+
+/// Play `kind` at 48 kHz for `audio_s` seconds in 512-sample blocks: a four-note
+/// chord every 20 blocks (about 0.2 s) wandering over the keyboard, sustain pedal
+/// down throughout, so keys pile up to the polyphony cap of 128.
+pub fn synth_throughput(kind: crate::instrument::InstrumentKind, audio_s: f64) -> SynthThroughput {
+    use crate::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+    const BLOCK: usize = 512;
+    let start = Instant::now();
+    let instrument = Instrument::build(&default_settings(kind, 48_000.0)).expect("the built-in instruments build");
+    let build_s = start.elapsed().as_secs_f64();
+    let (mut synth, _scope) = Synth::new(Box::new(instrument));
+    synth.set_controls(Controls { polyphony: 128, ..Controls::default() });
+    let keys: Vec<u8> = kind.key_range().collect();
+    let (mut left, mut right) = (vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]);
+    let mut events = Vec::with_capacity(8);
+    let blocks = (audio_s * 48_000.0 / BLOCK as f64).ceil() as usize;
+    let mut max_keys = 0;
+    let start = Instant::now();
+    for b in 0..blocks {
+        events.clear();
+        if b % 20 == 0 {
+            events.push(TimedEvent::new(0, Event::Sustain(1.0)));
+            for j in 0..4 {
+                let key = keys[(b / 20 * 7 + j * 5) % keys.len()];
+                events.push(TimedEvent::new(3, Event::NoteOn { key, velocity: 0.7 }));
+            }
+        }
+        synth.process(&events, &mut left, &mut right);
+        max_keys = max_keys.max(synth.active_keys());
+    }
+    let elapsed = start.elapsed().as_secs_f64();
+    SynthThroughput { real_time_factor: blocks as f64 * BLOCK as f64 / 48_000.0 / elapsed, max_keys, build_s }
+}

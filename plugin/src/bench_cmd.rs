@@ -1,7 +1,8 @@
-//! `struck bench`: how fast the modal bank runs here.
+//! `struck bench`: how fast the modal bank and the instruments run here.
 
 use std::time::Duration;
 
+use struck_engine::instrument::InstrumentKind;
 use struck_engine::perf;
 
 use crate::{BenchArgs, Failure};
@@ -32,5 +33,16 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         "in contact ({modes} modes, C2 string, 8 sub-steps, implicit felt): {rate:>8.3e} mode-steps/s  ({:.2} us per sample)",
         1e6 * modes as f64 * 8.0 / rate
     );
+    let audio_s = (10.0 * args.seconds).clamp(1.0, 60.0);
+    for kind in InstrumentKind::ALL {
+        let run = perf::synth_throughput(kind, audio_s);
+        println!(
+            "{:<11} chords every 0.2 s, pedal down: {:>6.1} x real time with up to {:>3} keys sounding (tables built in {:.1} ms)",
+            kind.name(),
+            run.real_time_factor,
+            run.max_keys,
+            1e3 * run.build_s
+        );
+    }
     Ok(())
 }

@@ -44,6 +44,7 @@ pub mod modal_bank;
 pub mod perf;
 pub mod pluck;
 pub mod residual;
+pub mod rng;
 pub mod string;
 pub mod struck_string;
 pub mod synth;

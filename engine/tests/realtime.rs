@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::rng::Rng;
 use struck_engine::synth::{Controls, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop};
 
 struct Counting;
@@ -36,24 +37,6 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-/// A small deterministic generator (xorshift).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 #[test]
 fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
     // The counter itself works: one watched allocation (and its free) is seen.
@@ -75,7 +58,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
         Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs })
     });
 
-    let mut rng = Rng(0x5eed_1234_abcd);
+    let mut rng = Rng::new(0x5eed_1234_abcd);
     let mut events: Vec<TimedEvent> = Vec::with_capacity(64);
     let (mut left, mut right) = (vec![0.0f32; 8192], vec![0.0f32; 8192]);
     let mut rendered = 0usize;
@@ -89,12 +72,16 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             let time = rng.below(block as u64) as u32;
             let key = 36 + rng.below(60) as u8;
             let event = match rng.below(10) {
-                0..=3 => Event::NoteOn { key, velocity: 0.05 + 0.95 * rng.unit() },
+                0..=3 => Event::NoteOn { key, velocity: 0.05 + 0.95 * rng.unit_f32() },
                 4..=6 => Event::NoteOff { key },
-                7 => Event::Sustain(rng.unit()),
-                8 => Event::PitchBend(2.0 * rng.unit() - 1.0),
-                _ => [Event::Sostenuto(rng.unit()), Event::UnaCorda(rng.unit()), Event::AllNotesOff, Event::Reset]
-                    [rng.below(4) as usize],
+                7 => Event::Sustain(rng.unit_f32()),
+                8 => Event::PitchBend(2.0 * rng.unit_f32() - 1.0),
+                _ => [
+                    Event::Sostenuto(rng.unit_f32()),
+                    Event::UnaCorda(rng.unit_f32()),
+                    Event::AllNotesOff,
+                    Event::Reset,
+                ][rng.below(4) as usize],
             };
             events.push(TimedEvent::new(time, event));
         }
@@ -104,8 +91,8 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
         }
         let controls = Controls {
             polyphony: 1 + rng.below(64) as usize,
-            output_gain: rng.unit() as f64,
-            touch_shape: 0.5 + rng.unit() as f64,
+            output_gain: rng.unit(),
+            touch_shape: 0.5 + rng.unit(),
             ..Controls::default()
         };
         let kind_before = *synth.settings();

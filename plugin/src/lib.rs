@@ -340,6 +340,7 @@ mod tests {
 
     use nice_plug::midi::{Channel, Key, VoiceID};
     use struck_engine::instrument::{InstrumentKind, Voicing};
+    use struck_engine::rng::Rng;
     use struck_engine::synth::InstrumentSettings;
 
     use super::*;
@@ -504,26 +505,6 @@ mod tests {
         assert!(l[300..].iter().any(|&s| s != 0.0), "the note starts at its sample");
     }
 
-    /// A small deterministic generator (xorshift64*).
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-        }
-
-        fn below(&mut self, n: u64) -> u64 {
-            self.next() % n
-        }
-
-        fn unit(&mut self) -> f32 {
-            (self.next() >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
-
     /// A long session of random playing, pedalling, bending and automation, with
     /// instrument and voicing changes built by the workshop, every block rendered
     /// under the allocation checker nice-plug uses (debug builds abort on any
@@ -533,7 +514,7 @@ mod tests {
         let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
         let (mut p, _workshop) = performer(&wanted);
         let mut port = Port::new();
-        let mut rng = Rng(0x5eed_1234_abcd_0001);
+        let mut rng = Rng::new(0x5eed_1234_abcd_0001);
         let (mut l, mut r) = (vec![0.0f32; 4096], vec![0.0f32; 4096]);
         let mut events: Vec<NoteEvent<()>> = Vec::with_capacity(4096);
         let mut controls = Controls::default();
@@ -547,17 +528,17 @@ mod tests {
             if rng.below(400) == 0 {
                 let mut w = wanted.lock().unwrap();
                 w.kind = InstrumentKind::ALL[rng.below(4) as usize];
-                w.voicing.hammer_mass = 0.25 + 3.75 * rng.unit() as f64;
-                w.voicing.damping = 0.25 + 3.75 * rng.unit() as f64;
-                w.voicing.unison_detune = 4.0 * rng.unit() as f64;
+                w.voicing.hammer_mass = 0.25 + 3.75 * rng.unit();
+                w.voicing.damping = 0.25 + 3.75 * rng.unit();
+                w.voicing.unison_detune = 4.0 * rng.unit();
                 switches += 1;
             }
             if rng.below(20) == 0 {
-                controls.touch_min = 0.5 * rng.unit() as f64;
-                controls.touch_max = 0.5 + 0.5 * rng.unit() as f64;
-                controls.touch_shape = 0.25 + 3.75 * rng.unit() as f64;
+                controls.touch_min = 0.5 * rng.unit();
+                controls.touch_max = 0.5 + 0.5 * rng.unit();
+                controls.touch_shape = 0.25 + 3.75 * rng.unit();
                 controls.polyphony = 1 + rng.below(128) as usize;
-                controls.output_gain = 10f64.powf((rng.unit() as f64 * 72.0 - 60.0) / 20.0);
+                controls.output_gain = 10f64.powf((rng.unit() * 72.0 - 60.0) / 20.0);
                 controls.bend_range_semitones = rng.below(25) as f64;
             }
             let n = [0, 1, 17, 64, 128, 256, 511, 1024, 4096][rng.below(9) as usize];
@@ -567,11 +548,11 @@ mod tests {
                 t = (t + rng.below(n as u64 / 4 + 1) as u32).min(n as u32);
                 let key = 21 + rng.below(88) as u8;
                 events.push(match rng.below(16) {
-                    0..=5 => note_on(t, key, rng.unit().max(0.01), rng.below(1000) as i32, rng.below(16) as u8),
+                    0..=5 => note_on(t, key, rng.unit_f32().max(0.01), rng.below(1000) as i32, rng.below(16) as u8),
                     6..=9 => note_off(t, key),
-                    10 => cc(t, 64, rng.unit()),
-                    11 => cc(t, [66, 67][rng.below(2) as usize], rng.unit()),
-                    12 => NoteEvent::MidiPitchBend { timing: t, channel: 0, value: rng.unit() },
+                    10 => cc(t, 64, rng.unit_f32()),
+                    11 => cc(t, [66, 67][rng.below(2) as usize], rng.unit_f32()),
+                    12 => NoteEvent::MidiPitchBend { timing: t, channel: 0, value: rng.unit_f32() },
                     13 => cc(t, [120, 121, 123][rng.below(3) as usize], 0.0),
                     14 => NoteEvent::Choke {
                         timing: t,
@@ -579,7 +560,7 @@ mod tests {
                         channel: Channel::Number(0),
                         key: Key::Number(key),
                     },
-                    _ => cc(t, 1, rng.unit()),
+                    _ => cc(t, 1, rng.unit_f32()),
                 });
             }
             port.load(&events);

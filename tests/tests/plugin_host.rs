@@ -23,6 +23,7 @@ use clack_host::events::Match;
 use clack_host::events::event_types::{MidiEvent, NoteOffEvent, NoteOnEvent, ParamValueEvent};
 use clack_host::events::spaces::CoreEventSpace;
 use clack_host::prelude::*;
+use struck_engine::rng::Rng;
 
 const FS: f64 = 48_000.0;
 const BLOCK: usize = 256;
@@ -374,26 +375,6 @@ fn plays_a_held_note_reports_its_end_and_round_trips_its_state() {
     assert_eq!(String::from_utf8_lossy(&again), String::from_utf8_lossy(&bytes), "saved state is stable");
 }
 
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Thirty seconds of random playing in random block sizes: notes, pedals, pitch
 /// bend, all-notes-off and resets, and automation of every parameter, instrument
 /// switches included. A debug bundle aborts on any allocation in `process`.
@@ -403,7 +384,7 @@ fn survives_a_long_random_session_without_allocating() {
     let loaded = Loaded::new(&path);
     let mut instance = loaded.instance();
     let ids = param_ids(&mut instance);
-    let mut rng = Rng(0x00c0_ffee_1234_5678);
+    let mut rng = Rng::new(0x00c0_ffee_1234_5678);
     let mut sizes = Vec::new();
     let mut script: Script = Vec::new();
     let mut total = 0;

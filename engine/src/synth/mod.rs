@@ -37,6 +37,8 @@ pub const STEAL_FADE_S: f64 = 0.005;
 pub const SWITCH_FADE_S: f64 = 0.02;
 /// Highest mode frequency kept, Hz (lower at low sample rates: 0.45 fs).
 pub const MAX_MODE_FREQUENCY_HZ: f64 = 20_000.0;
+/// Chunk length while the live view records a strike.
+const SCOPE_CHUNK: usize = 8;
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
 const DC_BLOCK_HZ: f64 = 5.0;
 
@@ -314,7 +316,10 @@ impl Synth {
                 self.control(pos as u32);
             }
             let until_event = events.get(next_event).map_or(n, |e| (e.time as usize).min(n));
-            let len = (n - pos).min(CONTROL_BLOCK - phase).min(until_event - pos);
+            // While a strike is being recorded for the live view, finer chunks let it
+            // catch the moment of peak contact (chunking never changes the samples).
+            let chunk = if self.scope.recording() { SCOPE_CHUNK } else { CONTROL_BLOCK };
+            let len = (n - pos).min(CONTROL_BLOCK - phase).min(chunk).min(until_event - pos);
             self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
             pos += len;
             self.clock += len as u64;

@@ -97,6 +97,8 @@ pub(super) struct ScopeWriter {
     key: Option<u8>,
     contact: [f32; CONTACT_SAMPLES],
     contact_len: usize,
+    /// Output samples since the last strike (saturating).
+    since_strike: usize,
     since_frame: usize,
     strike_shape_m: [f32; SHAPE_POINTS],
     strike_hammer: Option<(f32, f32)>,
@@ -119,6 +121,7 @@ pub(super) fn channel() -> (ScopeWriter, Scope) {
         key: None,
         contact: [0.0; CONTACT_SAMPLES],
         contact_len: 0,
+        since_strike: usize::MAX,
         since_frame: 0,
         strike_shape_m: [0.0; SHAPE_POINTS],
         strike_hammer: None,
@@ -134,10 +137,16 @@ impl ScopeWriter {
         self.key
     }
 
+    /// Whether the contact force of a strike is being recorded.
+    pub fn recording(&self) -> bool {
+        self.since_strike < CONTACT_SAMPLES
+    }
+
     /// A key was struck: follow it, and record its contact force afresh.
     pub fn struck(&mut self, midi_key: u8) {
         self.key = Some(midi_key);
         self.contact_len = 0;
+        self.since_strike = 0;
         self.strike_force_n = 0.0;
         self.strike_hammer = None;
     }
@@ -209,6 +218,7 @@ impl ScopeWriter {
     /// One output sample for the spectrum (dropped when the panel is not reading).
     #[inline]
     pub fn sample(&mut self, value: f32) {
+        self.since_strike = self.since_strike.saturating_add(1);
         let _ = self.samples.push(value);
     }
 }

@@ -187,7 +187,11 @@ pub fn string_view(ui: &mut Ui, frame: Option<&ScopeFrame>, size: Vec2) {
         painter.text(
             rect.center_top(),
             Align2::CENTER_TOP,
-            format!("faint: at peak contact, {:.1} N after {:.2} ms", frame.strike_force_n, frame.strike_time_s * 1e3),
+            format!(
+                "faint: at its peak contact force ({:.1} N on this string), {:.2} ms in",
+                frame.strike_force_n,
+                frame.strike_time_s * 1e3
+            ),
             small(),
             AXIS_TEXT,
         );

@@ -170,8 +170,12 @@ fn polyphony_steals_the_quietest_released_key() {
     ];
     render(&mut s, 0.2, &events, 64);
     assert_eq!(s.active_keys(), 2);
-    // Key 64 (released, quietest) was the one to go: playing it again is what wakes a third key.
-    render(&mut s, 0.01, &[], 64);
+    // Key 64 (released and the quietest) was the one to go.
+    assert!(s.key_sounding(60) && s.key_sounding(67) && !s.key_sounding(64));
+    // With every key held, the quietest goes: 67 (velocity 0.8 against 60's 1.0, and younger).
+    let more = [(0.0, Event::NoteOn { key: 64, velocity: 1.0 })];
+    render(&mut s, 0.05, &more, 64);
+    assert!(s.key_sounding(64) && s.key_sounding(60) != s.key_sounding(67));
 }
 
 #[test]

@@ -187,6 +187,8 @@ pub struct Synth {
     gain: f64,
     dc: [DcBlock; 2],
     dc_r: f64,
+    /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
+    glide: f64,
     mono: [f64; CONTROL_BLOCK],
     mix: [[f64; CONTROL_BLOCK]; 2],
     ended: Vec<KeyEnded>,
@@ -212,6 +214,7 @@ impl Synth {
             gain: 1.0,
             dc: [DcBlock::default(); 2],
             dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
+            glide: glide_step(fs),
             mono: [0.0; CONTROL_BLOCK],
             mix: [[0.0; CONTROL_BLOCK]; 2],
             ended: Vec::with_capacity(1024),
@@ -241,6 +244,11 @@ impl Synth {
     /// Keys sounding now (the outgoing instrument's included).
     pub fn active_keys(&self) -> usize {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
+    }
+
+    /// Whether `midi_key` of the instrument now playing is sounding.
+    pub fn key_sounding(&self, midi_key: u8) -> bool {
+        self.current.keys.get(midi_key as usize).and_then(|k| k.as_ref()).is_some_and(|k| k.active)
     }
 
     /// Keys that fell silent during the last [`Self::process`] call.
@@ -275,6 +283,7 @@ impl Synth {
         }
         let fs = self.current.settings.sample_rate_hz;
         self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp();
+        self.glide = glide_step(fs);
     }
 
     fn retire(&mut self, instrument: Box<Instrument>) {
@@ -471,9 +480,7 @@ impl Synth {
                 }
             }
         }
-        // The output gain glides (about 10 ms) so automation does not click.
-        let glide = 1.0 - (-1.0 / (0.01 * self.current.settings.sample_rate_hz)).exp();
-        let r = self.dc_r;
+        let (glide, r) = (self.glide, self.dc_r);
         for t in 0..n {
             self.gain += (self.controls.output_gain - self.gain) * glide;
             let l = self.dc[0].run(mix_l[t], r) * self.gain;
@@ -494,6 +501,11 @@ impl Synth {
     pub fn touch_for(&self, velocity: f64) -> f64 {
         self.controls.touch(self.current.touch, velocity)
     }
+}
+
+/// The output gain's per-sample glide coefficient: a 10 ms time constant.
+fn glide_step(sample_rate_hz: f64) -> f64 {
+    1.0 - (-1.0 / (0.01 * sample_rate_hz)).exp()
 }
 
 /// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built.

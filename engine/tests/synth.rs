@@ -286,3 +286,17 @@ fn the_live_view_shows_the_strike_and_the_output() {
     assert_eq!(samples.len(), out.len());
     assert!(samples.iter().zip(&out).all(|(a, b)| (a - b).abs() < 1e-6));
 }
+
+#[test]
+fn the_tail_reaches_exact_silence_without_subnormals() {
+    let mut s = synth(InstrumentKind::Piano);
+    let out = render(
+        &mut s,
+        12.0,
+        &[(0.0, Event::NoteOn { key: 72, velocity: 0.8 }), (0.1, Event::NoteOff { key: 72 })],
+        512,
+    );
+    assert!(out.iter().all(|v| !v.is_subnormal()), "a subnormal sample");
+    assert_eq!(s.active_keys(), 0);
+    assert!(out[out.len() - 4800..].iter().all(|&v| v == 0.0), "the output should end in exact zeros");
+}

@@ -300,3 +300,23 @@ fn the_tail_reaches_exact_silence_without_subnormals() {
     assert_eq!(s.active_keys(), 0);
     assert!(out[out.len() - 4800..].iter().all(|&v| v == 0.0), "the output should end in exact zeros");
 }
+
+#[test]
+fn odd_sample_rates_build_and_play() {
+    // What a host may ask (clap-validator does): keys without a partial below Nyquist stay silent.
+    for fs in [1_234.5678, 8_000.0, 12_345.678, 768_000.0] {
+        for kind in InstrumentKind::ALL {
+            let instrument =
+                Instrument::build(&default_settings(kind, fs)).unwrap_or_else(|e| panic!("{kind} at {fs}: {e}"));
+            let (mut s, _) = Synth::new(Box::new(instrument));
+            let n = (0.05 * fs) as usize;
+            let (mut l, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+            let notes: Vec<TimedEvent> =
+                kind.key_range().map(|key| TimedEvent::new(0, Event::NoteOn { key, velocity: 0.5 })).collect();
+            s.process(&notes, &mut l, &mut r);
+            assert!(l.iter().chain(&r).all(|v| v.is_finite()), "{kind} at {fs}");
+        }
+    }
+    assert!(Instrument::build(&default_settings(InstrumentKind::Piano, 999.0)).is_err());
+    assert!(Instrument::build(&default_settings(InstrumentKind::Piano, 800_000.0)).is_err());
+}

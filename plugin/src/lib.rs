@@ -505,6 +505,29 @@ mod tests {
         assert!(l[300..].iter().any(|&s| s != 0.0), "the note starts at its sample");
     }
 
+    /// After a key stops, the output decays into exact silence: hosts (and
+    /// clap-validator's fuzzer) must never be handed f32 subnormals.
+    #[test]
+    fn the_tail_into_silence_has_no_subnormal_samples() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        let mut port = Port::new();
+        port.load(&[note_on(0, 72, 0.8, 1, 0), note_off(4800, 72)]);
+        let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+        let mut sounded = false;
+        for block in 0..(12.0 * FS) as usize / 512 {
+            p.process(Controls::default(), &mut port, &mut l, &mut r);
+            port.load(&[]);
+            sounded |= l.iter().any(|s| s.abs() > 1e-3);
+            for s in l.iter().chain(&r) {
+                assert!(!s.is_subnormal(), "subnormal sample {s:e} in block {block}");
+            }
+        }
+        assert!(sounded, "the key sounded");
+        assert_eq!(p.synth().active_keys(), 0, "the key ended");
+        assert!(l.iter().chain(&r).all(|&s| s == 0.0), "and the output reached exact silence");
+    }
+
     /// A long session of random playing, pedalling, bending and automation, with
     /// instrument and voicing changes built by the workshop, every block rendered
     /// under the allocation checker nice-plug uses (debug builds abort on any

@@ -37,6 +37,10 @@ pub const STEAL_FADE_S: f64 = 0.005;
 pub const SWITCH_FADE_S: f64 = 0.02;
 /// Highest mode frequency kept, Hz (lower at low sample rates: 0.45 fs).
 pub const MAX_MODE_FREQUENCY_HZ: f64 = 20_000.0;
+/// Sample rates an instrument can be built for, Hz (hosts may ask for odd ones; the
+/// sound is meant for 22.05 to 192 kHz).
+pub const MIN_SAMPLE_RATE_HZ: f64 = 1_000.0;
+pub const MAX_SAMPLE_RATE_HZ: f64 = 768_000.0;
 /// Chunk length while the live view records a strike.
 const SCOPE_CHUNK: usize = 8;
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
@@ -53,7 +57,7 @@ pub struct InstrumentSettings {
 /// Why an instrument could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
-    #[error("sample rate {0} Hz is outside 8000..=384000 Hz")]
+    #[error("sample rate {0} Hz is outside 1000..=768000 Hz")]
     SampleRate(f64),
     #[error("{kind} key {key}: {source}")]
     String { kind: InstrumentKind, key: u8, source: StringError },
@@ -112,19 +116,19 @@ impl Instrument {
     /// Build every key's tables. Allocates; takes tens of milliseconds.
     pub fn build(settings: &InstrumentSettings) -> Result<Self, BuildError> {
         let fs = settings.sample_rate_hz;
-        if !(8_000.0..=384_000.0).contains(&fs) {
+        if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
             return Err(BuildError::SampleRate(fs));
         }
         let max_frequency_hz = MAX_MODE_FREQUENCY_HZ.min(0.45 * fs);
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
         for midi_key in settings.kind.key_range() {
             if let Some(design) = instrument::design(settings.kind, &settings.voicing, midi_key, max_frequency_hz) {
-                let key = Key::build(design, fs).map_err(|source| BuildError::String {
-                    kind: settings.kind,
-                    key: midi_key,
-                    source,
-                })?;
-                keys[midi_key as usize] = Some(key);
+                match Key::build(design, fs) {
+                    Ok(key) => keys[midi_key as usize] = Some(key),
+                    // At a very low sample rate the top keys have no partial below Nyquist: they stay silent.
+                    Err(StringError::NoModes { .. }) => {}
+                    Err(source) => return Err(BuildError::String { kind: settings.kind, key: midi_key, source }),
+                }
             }
         }
         Ok(Self { settings: *settings, keys, touch: settings.kind.touch_range() })

@@ -304,7 +304,7 @@ fn the_tail_reaches_exact_silence_without_subnormals() {
 #[test]
 fn odd_sample_rates_build_and_play() {
     // What a host may ask (clap-validator does): keys without a partial below Nyquist stay silent.
-    for fs in [1_234.5678, 8_000.0, 12_345.678, 768_000.0] {
+    for fs in [1_234.567_8, 8_000.0, 12_345.678, 768_000.0] {
         for kind in InstrumentKind::ALL {
             let instrument =
                 Instrument::build(&default_settings(kind, fs)).unwrap_or_else(|e| panic!("{kind} at {fs}: {e}"));

@@ -24,6 +24,7 @@
 use std::fs;
 use std::io::{self, IsTerminal};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -45,6 +46,11 @@ pub const MAX_TAIL_S: f64 = 600.0;
 pub const MAX_BLOCK_SIZE: usize = 8192;
 /// A WAV's sizes are 32-bit: the data may not exceed this many bytes.
 const MAX_WAV_DATA_BYTES: u64 = u32::MAX as u64 - 64;
+/// Set by a stop signal while rendering.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Exit status after a stop signal (128 + SIGINT, as shells report it).
+const EXIT_INTERRUPTED: u8 = 130;
+
 /// Samples between progress-bar updates.
 const PROGRESS_EVERY: u64 = 1 << 15;
 
@@ -162,11 +168,16 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     };
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
+    // Ctrl-C (or SIGTERM) stops between blocks, so the partial file is removed.
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     let mut staged = Staged::default();
     let written = staged.write(&args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
         let mut done = 0u64;
         render(&mut synth, &song.events, total, block_size, |left, right| {
+            if INTERRUPTED.load(Ordering::Relaxed) {
+                return Err(io::Error::other("interrupted"));
+            }
             for (&l, &r) in left.iter().zip(right) {
                 if !(l.is_finite() && r.is_finite()) {
                     non_finite = Some(done);
@@ -188,6 +199,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     });
     if let Some(bar) = &progress {
         bar.finish_and_clear();
+    }
+    if INTERRUPTED.load(Ordering::Relaxed) {
+        return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
     }
     if let Some(sample) = non_finite {
         return Err(Failure::failed(format!(

@@ -446,3 +446,27 @@ fn a_failed_write_leaves_nothing() {
     assert!(scratch.out().is_dir());
     assert!(scratch.others(&["out.wav"]).is_empty(), "{:?}", scratch.others(&["out.wav"]));
 }
+
+#[test]
+fn an_interrupted_render_leaves_nothing_behind() {
+    let scratch = Scratch::new();
+    let song = crate_dir_song("piano-nocturne.mid");
+    let out = scratch.out();
+    // Ten minutes of tail at 192 kHz: long enough to be interrupted mid-way.
+    let mut child = std::process::Command::new(struck_tests::struck_binary())
+        .args(["render", path_str(&song), "--out", path_str(&out), "--sample-rate", "192000", "--tail-s", "600", "-q"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let killed = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(130), "{}", stderr(&output));
+    assert!(stderr(&output).contains("interrupted"), "{}", stderr(&output));
+    assert!(!out.exists() && scratch.others(&[]).is_empty(), "left behind: {:?}", scratch.others(&[]));
+}
+
+fn crate_dir_song(name: &str) -> PathBuf {
+    struck_tests::crate_dir().parent().unwrap().join("demo-songs").join(name)
+}

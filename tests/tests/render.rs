@@ -453,7 +453,7 @@ fn an_interrupted_render_leaves_nothing_behind() {
     let song = crate_dir_song("piano-nocturne.mid");
     let out = scratch.out();
     // Ten minutes of tail at 192 kHz: long enough to be interrupted mid-way.
-    let mut child = std::process::Command::new(struck_tests::struck_binary())
+    let child = std::process::Command::new(struck_tests::struck_binary())
         .args(["render", path_str(&song), "--out", path_str(&out), "--sample-rate", "192000", "--tail-s", "600", "-q"])
         .stderr(std::process::Stdio::piped())
         .spawn()

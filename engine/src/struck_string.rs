@@ -417,11 +417,6 @@ impl StruckString {
         self.exciter = Exciter::Pluck;
     }
 
-    /// Whether an exciter is acting or being observed (the string is not free).
-    pub fn is_free(&self) -> bool {
-        matches!(self.exciter, Exciter::None)
-    }
-
     /// Whether a hammer is in play but has left the string: flying away, at
     /// least `gap_m` below it, for at least `after_s` since the strike.
     pub fn hammer_gone(&self, gap_m: f64, after_s: f64) -> bool {

@@ -11,10 +11,12 @@ use crate::tangent::TangentSpec;
 /// Time constant of a tangent falling back from the strings when the key comes up, s.
 const TANGENT_LIFT_S: f64 = 0.002;
 /// A hammer that has left the strings this far, moving away, this long after
-/// the strike, will not come back: the strings go free (the fast path).
+/// the strike, will not come back: the strings go free (the fast path). Chosen
+/// above a mallet's repeated bounces (a few ms) and a string's swing (below 0.5 mm).
 const HAMMER_GONE_GAP_M: f64 = 0.5e-3;
 const HAMMER_GONE_AFTER_S: f64 = 0.03;
-/// Una corda: the hammer meets the strings with its less worn, softer felt.
+/// Una corda: the hammer meets the strings with its less worn, softer felt. The
+/// factor on K is our assumption (the physics reference has no measurement of it).
 const UNA_CORDA_STIFFNESS: f64 = 0.5;
 
 pub(super) struct Key {

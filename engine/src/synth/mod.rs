@@ -138,11 +138,6 @@ impl Instrument {
         &self.settings
     }
 
-    /// Total modes over all strings of all keys.
-    pub fn mode_count(&self) -> usize {
-        self.keys.iter().flatten().flat_map(|k| &k.strings).map(|s| s.bank().len()).sum()
-    }
-
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
         self.keys.iter().flatten().filter(|k| k.active)
     }
@@ -327,7 +322,7 @@ impl Synth {
         let mut next_event = 0;
         while pos < n {
             while next_event < events.len() && (events[next_event].time as usize) <= pos {
-                self.handle(events[next_event].event, pos as u32);
+                self.handle(events[next_event].event);
                 next_event += 1;
             }
             let phase = (self.clock % CONTROL_BLOCK as u64) as usize;
@@ -345,11 +340,11 @@ impl Synth {
         }
         // Events stamped past the block's end still happen, at its end.
         for e in &events[next_event..] {
-            self.handle(e.event, n as u32);
+            self.handle(e.event);
         }
     }
 
-    fn handle(&mut self, event: Event, time: u32) {
+    fn handle(&mut self, event: Event) {
         match event {
             Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key),
             Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
@@ -391,7 +386,6 @@ impl Synth {
                 self.bend = 1.0;
             }
         }
-        let _ = time;
     }
 
     fn note_on(&mut self, midi_key: u8, velocity: f64) {
@@ -499,17 +493,6 @@ impl Synth {
             right[t] = rr as f32;
             self.scope.sample(0.5 * (l + rr) as f32);
         }
-    }
-
-    /// The instrument's key range and whether a key exists (for hosts' voice info).
-    pub fn has_key(&self, midi_key: u8) -> bool {
-        self.current.keys.get(midi_key as usize).is_some_and(|k| k.is_some())
-    }
-
-    /// A key's exciter speed for `velocity` under the present controls, m/s
-    /// (pluck height in mm for a harpsichord).
-    pub fn touch_for(&self, velocity: f64) -> f64 {
-        self.controls.touch(self.current.touch, velocity)
     }
 }
 

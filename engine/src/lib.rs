@@ -49,3 +49,4 @@ pub mod string;
 pub mod struck_string;
 pub mod synth;
 pub mod tangent;
+pub mod tuning;

@@ -46,7 +46,12 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
     assert_eq!(ON_AUDIO_THREAD.swap(0, Ordering::Relaxed), 2);
 
     let fs = 48_000.0;
-    let first = InstrumentSettings { kind: InstrumentKind::Piano, voicing: Voicing::default(), sample_rate_hz: fs };
+    let first = InstrumentSettings {
+        kind: InstrumentKind::Piano,
+        voicing: Voicing::default(),
+        sample_rate_hz: fs,
+        tuning: Default::default(),
+    };
     let (mut synth, _scope) = Synth::new(Box::new(Instrument::build(&first).unwrap()));
     // What the "host" wants built: changed from the audio loop below, read by the workshop.
     let wanted = Arc::new(AtomicU64::new(0));
@@ -55,7 +60,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
         let code = reader.load(Ordering::Relaxed);
         let kind = InstrumentKind::ALL[(code % 4) as usize];
         let voicing = Voicing { damping: 1.0 + (code / 4 % 3) as f64 * 0.5, ..Voicing::default() };
-        Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs })
+        Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs, tuning: Default::default() })
     });
 
     let mut rng = Rng::new(0x5eed_1234_abcd);
@@ -95,7 +100,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             touch_shape: 0.5 + rng.unit(),
             ..Controls::default()
         };
-        let kind_before = *synth.settings();
+        let kind_before = synth.settings().clone();
 
         WATCHED.with(|w| w.set(true));
         delivery.exchange(&mut synth);

@@ -235,8 +235,8 @@ fn a_rebuild_of_the_same_instrument_keeps_keys_ringing() {
 fn the_workshop_builds_off_the_audio_thread_and_delivers() {
     let settings = default_settings(InstrumentKind::Clavichord, FS);
     let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
-    let wanted = InstrumentSettings { kind: InstrumentKind::Harpsichord, ..settings };
-    let (workshop, mut delivery): (Workshop, Delivery) = Workshop::spawn(settings, move || Some(wanted));
+    let wanted = InstrumentSettings { kind: InstrumentKind::Harpsichord, ..settings.clone() };
+    let (workshop, mut delivery): (Workshop, Delivery) = Workshop::spawn(settings, move || Some(wanted.clone()));
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
     while s.settings().kind != InstrumentKind::Harpsichord {
         assert!(std::time::Instant::now() < deadline, "no delivery");

@@ -339,7 +339,7 @@ mod tests {
     use std::time::{Duration, Instant};
 
     use nice_plug::midi::{Channel, Key, VoiceID};
-    use struck_engine::instrument::{InstrumentKind, Voicing};
+    use struck_engine::instrument::InstrumentKind;
     use struck_engine::rng::Rng;
     use struck_engine::synth::InstrumentSettings;
 
@@ -381,15 +381,15 @@ mod tests {
     }
 
     fn settings(kind: InstrumentKind) -> InstrumentSettings {
-        InstrumentSettings { kind, voicing: Voicing::default(), sample_rate_hz: FS }
+        struck_engine::synth::default_settings(kind, FS)
     }
 
     /// A performer with a workshop following `wanted`.
     fn performer(wanted: &Arc<Mutex<InstrumentSettings>>) -> (Performer, Workshop) {
-        let first = *wanted.lock().unwrap();
+        let first = wanted.lock().unwrap().clone();
         let (synth, _scope) = Synth::new(Box::new(Instrument::build(&first).unwrap()));
         let source = wanted.clone();
-        let (workshop, delivery) = Workshop::spawn(first, move || Some(*source.lock().unwrap()));
+        let (workshop, delivery) = Workshop::spawn(first, move || Some(source.lock().unwrap().clone()));
         (Performer::new(synth, delivery), workshop)
     }
 
@@ -544,7 +544,7 @@ mod tests {
         let mut rendered = 0usize;
         let mut switches = 0;
         let mut installed = 0;
-        let mut playing = *p.synth().settings();
+        let mut playing = p.synth().settings().clone();
         let session = (40.0 * FS) as usize;
         while rendered < session {
             // Between blocks, as a host's main thread would: automation and rebuilds.
@@ -598,14 +598,14 @@ mod tests {
             }
             rendered += n;
             if *p.synth().settings() != playing {
-                playing = *p.synth().settings();
+                playing = p.synth().settings().clone();
                 installed += 1;
             }
         }
         assert!(switches > 3, "the session asked for new instruments ({switches} times)");
         assert!(installed > 1, "new instruments were installed mid-session ({installed} times)");
         // The last switch arrives within a moment.
-        let last = *wanted.lock().unwrap();
+        let last = wanted.lock().unwrap().clone();
         let deadline = Instant::now() + Duration::from_secs(60);
         while *p.synth().settings() != last {
             assert!(Instant::now() < deadline, "the workshop never delivered {last:?}");

@@ -18,8 +18,15 @@ use struck_engine::synth::{Controls, InstrumentSettings};
 pub enum Instrument {
     #[id = "piano"]
     Piano,
+    #[id = "fortepiano"]
+    Fortepiano,
     #[id = "santoor"]
     Santoor,
+    #[id = "dulcimer"]
+    #[name = "Hammered dulcimer"]
+    Dulcimer,
+    #[id = "cimbalom"]
+    Cimbalom,
     #[id = "clavichord"]
     Clavichord,
     #[id = "harpsichord"]
@@ -30,14 +37,24 @@ impl Instrument {
     pub fn kind(self) -> InstrumentKind {
         match self {
             Instrument::Piano => InstrumentKind::Piano,
+            Instrument::Fortepiano => InstrumentKind::Fortepiano,
             Instrument::Santoor => InstrumentKind::Santoor,
+            Instrument::Dulcimer => InstrumentKind::Dulcimer,
+            Instrument::Cimbalom => InstrumentKind::Cimbalom,
             Instrument::Clavichord => InstrumentKind::Clavichord,
             Instrument::Harpsichord => InstrumentKind::Harpsichord,
         }
     }
 
-    pub const ALL: [Instrument; 4] =
-        [Instrument::Piano, Instrument::Santoor, Instrument::Clavichord, Instrument::Harpsichord];
+    pub const ALL: [Instrument; 7] = [
+        Instrument::Piano,
+        Instrument::Fortepiano,
+        Instrument::Santoor,
+        Instrument::Dulcimer,
+        Instrument::Cimbalom,
+        Instrument::Clavichord,
+        Instrument::Harpsichord,
+    ];
 }
 
 /// Version of the saved state's layout, kept with the state for future migrations.
@@ -189,12 +206,18 @@ impl StruckParams {
             strike_position: self.hammer.position.value() as f64,
             damping: self.strings.damping.value() as f64,
             unison_detune: self.strings.detune.value() as f64,
+            ..Voicing::default()
         }
     }
 
     /// What the instrument's tables are built from, at `sample_rate_hz`.
     pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
-        InstrumentSettings { kind: self.kind(), voicing: self.voicing(), sample_rate_hz }
+        InstrumentSettings {
+            kind: self.kind(),
+            voicing: self.voicing(),
+            sample_rate_hz,
+            tuning: struck_engine::tuning::TuningSettings::default(),
+        }
     }
 
     /// The per-block controls. Reads atomics only: real-time safe.

@@ -141,7 +141,8 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         )));
     }
 
-    let settings = InstrumentSettings { kind, voicing: preset.voicing, sample_rate_hz: fs_hz };
+    let settings =
+        InstrumentSettings { kind, voicing: preset.voicing, sample_rate_hz: fs_hz, tuning: Default::default() };
     let instrument = Instrument::build(&settings).map_err(|e| match &args.preset {
         Some(path) => Failure::bad_input(format!("{}: voicing: {e}", path.display())),
         None => Failure::failed(format!("cannot build the {kind}: {e}")),

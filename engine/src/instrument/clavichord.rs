@@ -118,7 +118,10 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     KeyDesign {
         midi_key,
         strings: specs,
-        exciter: ExciterDesign::Tangent { displacement_m },
+        struck: 0..STRINGS,
+        shared: Vec::new(),
+        bridge_coupling_s_kg: 0.0,
+        exciter: ExciterDesign::Tangent { displacement_m, stretch_per_m2: 0.0 },
         // The listing felt takes over as soon as the tangent leaves: 60 dB in 0.1 s.
         damper: Some(damper(0.1, 1.0e-2, f1_hz, 0.005)),
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
@@ -140,7 +143,7 @@ mod tests {
         // The leak fades with frequency: partials above 500 Hz are several times less damped.
         let high = s.modes.iter().find(|m| m.frequency_hz() > 500.0).unwrap();
         assert!(high.q > 4.0 * s.modes[0].q, "{}", high.q);
-        let ExciterDesign::Tangent { displacement_m } = d.exciter else { panic!("not a tangent") };
+        let ExciterDesign::Tangent { displacement_m, .. } = d.exciter else { panic!("not a tangent") };
         assert!((displacement_m - 2.0e-3).abs() < 0.02e-3);
     }
 

@@ -7,6 +7,7 @@
 //! the audio thread.
 
 use std::fmt;
+use std::ops::Range;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
@@ -14,8 +15,11 @@ use serde::{Deserialize, Serialize};
 use crate::contact::ContactLaw;
 use crate::string::StringSpec;
 
+mod cimbalom;
 mod clavichord;
 mod common;
+mod dulcimer;
+mod fortepiano;
 mod harpsichord;
 mod piano;
 mod santoor;
@@ -26,19 +30,32 @@ mod santoor;
 pub enum InstrumentKind {
     #[default]
     Piano,
+    Fortepiano,
     Santoor,
+    Dulcimer,
+    Cimbalom,
     Clavichord,
     Harpsichord,
 }
 
 impl InstrumentKind {
-    pub const ALL: [InstrumentKind; 4] =
-        [InstrumentKind::Piano, InstrumentKind::Santoor, InstrumentKind::Clavichord, InstrumentKind::Harpsichord];
+    pub const ALL: [InstrumentKind; 7] = [
+        InstrumentKind::Piano,
+        InstrumentKind::Fortepiano,
+        InstrumentKind::Santoor,
+        InstrumentKind::Dulcimer,
+        InstrumentKind::Cimbalom,
+        InstrumentKind::Clavichord,
+        InstrumentKind::Harpsichord,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             InstrumentKind::Piano => "piano",
+            InstrumentKind::Fortepiano => "fortepiano",
             InstrumentKind::Santoor => "santoor",
+            InstrumentKind::Dulcimer => "dulcimer",
+            InstrumentKind::Cimbalom => "cimbalom",
             InstrumentKind::Clavichord => "clavichord",
             InstrumentKind::Harpsichord => "harpsichord",
         }
@@ -48,7 +65,10 @@ impl InstrumentKind {
     pub fn key_range(self) -> std::ops::RangeInclusive<u8> {
         match self {
             InstrumentKind::Piano => piano::KEYS,
+            InstrumentKind::Fortepiano => fortepiano::KEYS,
             InstrumentKind::Santoor => santoor::KEYS,
+            InstrumentKind::Dulcimer => dulcimer::KEYS,
+            InstrumentKind::Cimbalom => cimbalom::KEYS,
             InstrumentKind::Clavichord => clavichord::KEYS,
             InstrumentKind::Harpsichord => harpsichord::KEYS,
         }
@@ -58,7 +78,10 @@ impl InstrumentKind {
     pub fn touch_range(self) -> TouchRange {
         match self {
             InstrumentKind::Piano => piano::TOUCH,
+            InstrumentKind::Fortepiano => fortepiano::TOUCH,
             InstrumentKind::Santoor => santoor::TOUCH,
+            InstrumentKind::Dulcimer => dulcimer::TOUCH,
+            InstrumentKind::Cimbalom => cimbalom::TOUCH,
             InstrumentKind::Clavichord => clavichord::TOUCH,
             InstrumentKind::Harpsichord => harpsichord::TOUCH,
         }
@@ -78,7 +101,7 @@ impl FromStr for InstrumentKind {
         Self::ALL
             .into_iter()
             .find(|k| k.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| format!("unknown instrument \"{s}\" (expected piano, santoor, clavichord or harpsichord)"))
+            .ok_or_else(|| format!("unknown instrument \"{s}\" (expected piano, fortepiano, santoor, dulcimer, cimbalom, clavichord or harpsichord)"))
     }
 }
 
@@ -107,6 +130,10 @@ pub struct Voicing {
     pub damping: f64,
     /// Spread of the unison detuning.
     pub unison_detune: f64,
+    /// Clavichord: how far the tangent goes into the string (1 = as built, 2 mm on a 0.8 m string).
+    pub tangent_depth: f64,
+    /// Clavichord: fretted, several keys sharing one pair of strings (the higher tangent wins).
+    pub fretted: bool,
 }
 
 impl Default for Voicing {
@@ -118,6 +145,8 @@ impl Default for Voicing {
             strike_position: 1.0,
             damping: 1.0,
             unison_detune: 1.0,
+            tangent_depth: 1.0,
+            fretted: false,
         }
     }
 }
@@ -134,7 +163,9 @@ pub enum ExciterDesign {
         position: f64,
     },
     /// A clavichord tangent pressing the far end of the strings by `displacement_m`.
-    Tangent { displacement_m: f64 },
+    /// Pressing by W stretches the string: its tension rises by the factor
+    /// 1 + `stretch_per_m2` W^2 (speaking and non-speaking lengths both stretched).
+    Tangent { displacement_m: f64, stretch_per_m2: f64 },
     /// A harpsichord plectrum releasing the string at `position`.
     Pluck { position: f64 },
 }
@@ -147,6 +178,21 @@ pub struct DamperDesign {
     pub rate_per_hz_s: f64,
     /// Time for the damper felt to settle on (or lift off) the strings, s.
     pub travel_s: f64,
+    /// The damper is worked by the pedal alone (a cimbalom's damper bar): keys do
+    /// not lift it, so a note-off changes nothing.
+    pub pedal_only: bool,
+}
+
+/// Another key that plays the same strings as the key it is listed under: the
+/// other side of a dulcimer course, a fretted clavichord's neighbouring tangent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedKey {
+    pub midi_key: u8,
+    /// Which of the course's strings its exciter reaches.
+    pub struck: Range<usize>,
+    pub exciter: ExciterDesign,
+    /// Its pitch over the course's own (a tangent nearer the bridge shortens the speaking length).
+    pub pitch_ratio: f64,
 }
 
 /// Everything one key is made of.
@@ -156,6 +202,14 @@ pub struct KeyDesign {
     /// The strings of the course, each already detuned.
     pub strings: Vec<StringSpec>,
     pub exciter: ExciterDesign,
+    /// Which of `strings` the key's own exciter reaches (usually all of them).
+    pub struck: Range<usize>,
+    /// Other keys played on these strings; they have no design of their own.
+    pub shared: Vec<SharedKey>,
+    /// Re Y of the bridge point the strings share, s/kg: the bridge's motion under
+    /// the force of the strings outside `struck` drives those inside, and the other
+    /// way round (0: the strings are not coupled).
+    pub bridge_coupling_s_kg: f64,
     /// None: no damper (santoor).
     pub damper: Option<DamperDesign>,
     /// Output gain from bridge force (N) to a full-scale sample.
@@ -164,15 +218,19 @@ pub struct KeyDesign {
     pub pan: f64,
 }
 
-/// The design of `midi_key` on `kind` with `voicing`, for modes up to
-/// `max_frequency_hz`; None when the instrument has no such key.
+/// The design of `midi_key` on `kind` with `voicing`, in equal temperament at
+/// A4 = 440 Hz, for modes up to `max_frequency_hz`; None when the instrument has
+/// no such key, or when the key plays another key's strings ([`KeyDesign::shared`]).
 pub fn design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> Option<KeyDesign> {
     if !kind.key_range().contains(&midi_key) {
         return None;
     }
     let key = match kind {
         InstrumentKind::Piano => piano::design(voicing, midi_key, max_frequency_hz),
+        InstrumentKind::Fortepiano => fortepiano::design(voicing, midi_key, max_frequency_hz),
         InstrumentKind::Santoor => santoor::design(voicing, midi_key, max_frequency_hz),
+        InstrumentKind::Dulcimer => dulcimer::design(voicing, midi_key, max_frequency_hz)?,
+        InstrumentKind::Cimbalom => cimbalom::design(voicing, midi_key, max_frequency_hz),
         InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz),
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };

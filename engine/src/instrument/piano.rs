@@ -32,7 +32,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
 /// Hammer speeds from pianissimo to fortissimo (Boutillon 1988 measured 0.11 to
 /// 6.83 m/s), m/s.
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 7.0 };
+pub(crate) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 7.0 };
 
 /// The last key with a single string, and the last with two (wound) strings.
 const LAST_SINGLE_KEY: u8 = 37;
@@ -124,7 +124,7 @@ pub(super) fn felt_law(midi_key: u8) -> ContactLaw {
     ContactLaw { stiffness: FELT_STIFFNESS.log(midi_key), exponent: FELT_EXPONENT.linear(midi_key) }
 }
 
-pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
+pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
     let strings = strings_per_key(midi_key);
     let length_m = LENGTH_M.log_extended(midi_key);
     let core_m = CORE_DIAMETER_M.log_extended(midi_key);
@@ -167,6 +167,9 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     KeyDesign {
         midi_key,
         strings: specs,
+        struck: 0..strings,
+        shared: Vec::new(),
+        bridge_coupling_s_kg: 0.0,
         exciter: ExciterDesign::Hammer {
             mass_kg: hammer_mass_kg * voicing.hammer_mass,
             law: voiced_law(felt_law(midi_key), voicing),

@@ -30,7 +30,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 52..=89;
 
 /// Mallet speeds from a soft touch to a hard stroke, m/s (Woodhouse's examples
 /// use 1 m/s; a wrist stroke with a light mallet reaches a few m/s).
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.3, max: 4.0 };
+pub(crate) const TOUCH: TouchRange = TouchRange { min: 0.3, max: 4.0 };
 
 const STRINGS: usize = 4;
 const WIRE_DIAMETER_M: f64 = 0.5e-3;
@@ -75,7 +75,7 @@ fn length_m(midi_key: u8) -> f64 {
     (stress_pa / STEEL_DENSITY_KG_M3).sqrt() / (2.0 * key_frequency_hz(midi_key))
 }
 
-pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
+pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
     let length_m = length_m(midi_key);
     let specs = unison_cents(midi_key, STRINGS, UNISON_SPREAD_CENTS, voicing)
         .into_iter()
@@ -107,6 +107,9 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     KeyDesign {
         midi_key,
         strings: specs,
+        struck: 0..STRINGS,
+        shared: Vec::new(),
+        bridge_coupling_s_kg: 0.0,
         exciter: ExciterDesign::Hammer {
             mass_kg: mallet_mass_kg * voicing.hammer_mass,
             law: voiced_law(law, voicing),

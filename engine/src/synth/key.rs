@@ -110,7 +110,7 @@ impl Key {
                     });
                 }
             }
-            ExciterDesign::Tangent { displacement_m } => {
+            ExciterDesign::Tangent { displacement_m, .. } => {
                 for s in &mut self.strings {
                     s.press_tangent(TangentSpec { speed_m_s: touch, displacement_m });
                 }

@@ -22,8 +22,10 @@ pub use event::{Event, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
-use crate::instrument::{self, InstrumentKind, TouchRange, Voicing};
+use crate::instrument::{self, InstrumentKind, KeyDesign, TouchRange, Voicing, key_frequency_hz};
 use crate::string::StringError;
+use crate::string::Tuning;
+use crate::tuning::TuningSettings;
 use key::Key;
 use scope::ScopeWriter;
 
@@ -47,11 +49,12 @@ const SCOPE_CHUNK: usize = 8;
 const DC_BLOCK_HZ: f64 = 5.0;
 
 /// What an instrument's tables depend on. Changing any of these means a rebuild.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct InstrumentSettings {
     pub kind: InstrumentKind,
     pub voicing: Voicing,
     pub sample_rate_hz: f64,
+    pub tuning: TuningSettings,
 }
 
 /// Why an instrument could not be built.
@@ -120,9 +123,21 @@ impl Instrument {
             return Err(BuildError::SampleRate(fs));
         }
         let max_frequency_hz = MAX_MODE_FREQUENCY_HZ.min(0.45 * fs);
+        let designs: Vec<KeyDesign> = settings
+            .kind
+            .key_range()
+            .filter_map(|k| instrument::design(settings.kind, &settings.voicing, k, max_frequency_hz))
+            .collect();
+        let frequencies_hz = settings.tuning.frequencies_hz(&|k| {
+            let design = designs.iter().find(|d| d.midi_key == k)?;
+            let spec = design.strings.get(design.struck.start)?;
+            spec.build().ok().map(|s| s.inharmonicity)
+        });
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
-        for midi_key in settings.kind.key_range() {
-            if let Some(design) = instrument::design(settings.kind, &settings.voicing, midi_key, max_frequency_hz) {
+        for design in designs {
+            let midi_key = design.midi_key;
+            let design = tuned(design, &frequencies_hz);
+            {
                 match Key::build(design, fs) {
                     Ok(key) => keys[midi_key as usize] = Some(key),
                     // At a very low sample rate the top keys have no partial below Nyquist: they stay silent.
@@ -131,7 +146,7 @@ impl Instrument {
                 }
             }
         }
-        Ok(Self { settings: *settings, keys, touch: settings.kind.touch_range() })
+        Ok(Self { settings: settings.clone(), keys, touch: settings.kind.touch_range() })
     }
 
     pub fn settings(&self) -> &InstrumentSettings {
@@ -501,7 +516,35 @@ fn glide_step(sample_rate_hz: f64) -> f64 {
     1.0 - (-1.0 / (0.01 * sample_rate_hz)).exp()
 }
 
-/// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built.
+/// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built,
+/// in equal temperament at A4 = 440 Hz.
 pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> InstrumentSettings {
-    InstrumentSettings { kind, voicing: Voicing::default(), sample_rate_hz }
+    InstrumentSettings { kind, voicing: Voicing::default(), sample_rate_hz, tuning: TuningSettings::default() }
+}
+
+/// `design` (in equal temperament at 440 Hz) retuned to `frequencies_hz`: every
+/// string turned to its key's frequency, as a tuner turns the pins. Strings a
+/// shared key strikes apart from the key's own (the other side of a dulcimer
+/// course) follow that key; a shared key on the same strings (a fretted
+/// clavichord's tangent) keeps its interval to the tuned course.
+fn tuned(mut design: KeyDesign, frequencies_hz: &[f64; 128]) -> KeyDesign {
+    let ratio = |k: u8| frequencies_hz[k as usize] / key_frequency_hz(k);
+    let home = ratio(design.midi_key);
+    for (i, spec) in design.strings.iter_mut().enumerate() {
+        let owner = design
+            .shared
+            .iter()
+            .find(|s| s.struck.contains(&i) && !design.struck.contains(&i))
+            .map_or(home, |s| ratio(s.midi_key));
+        spec.tuning = match spec.tuning {
+            Tuning::FirstPartialHz(f) => Tuning::FirstPartialHz(f * owner),
+            Tuning::TensionN(t) => Tuning::TensionN(t * owner * owner),
+        };
+    }
+    for shared in &mut design.shared {
+        if shared.struck.start < design.struck.end && design.struck.start < shared.struck.end {
+            shared.pitch_ratio *= ratio(shared.midi_key) / home;
+        }
+    }
+    design
 }

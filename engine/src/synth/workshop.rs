@@ -69,18 +69,18 @@ impl Workshop {
                     }
                     let Some(wanted) = settings() else { continue };
                     // Build once the settings have held still for one poll (a knob being dragged).
-                    let steady = seen == Some(wanted);
-                    seen = Some(wanted);
+                    let steady = seen.as_ref() == Some(&wanted);
+                    seen = Some(wanted.clone());
                     if wanted == last || !steady || to_audio.is_full() {
                         continue;
                     }
-                    last = wanted;
                     match Instrument::build(&wanted) {
                         Ok(instrument) => {
                             let _ = to_audio.push(Box::new(instrument));
                         }
                         Err(e) => eprintln!("struck: cannot build the instrument: {e}"),
                     }
+                    last = wanted;
                 }
             })
             .expect("spawning the workshop thread");

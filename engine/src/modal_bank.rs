@@ -288,6 +288,20 @@ impl ModalBank {
         self.set_state(i, self.state(i) + dz);
     }
 
+    /// Factors for [`Self::kick`]: mode `i` gains `gains[i]` times the kick's
+    /// velocity. Allocates.
+    pub fn kick_table(&self, gains: &[f64]) -> Vec<f64> {
+        (0..self.len).map(|i| -gains[i] * self.weight[i] / self.lambda[i].im).collect()
+    }
+
+    /// Add `gains[i] * dv` to the velocity of every mode i at once, keeping the
+    /// displacements (`table` from [`Self::kick_table`] for those gains). Allocates: no.
+    pub fn kick(&mut self, table: &[f64], dv: f64) {
+        for (im, k) in self.im[..table.len()].iter_mut().zip(table) {
+            *im += k * dv;
+        }
+    }
+
     /// Add `input` times the drive's within-step response to the state: moves a
     /// stored state between its "input still to come" and "input applied" forms.
     pub fn apply_ramp(&mut self, drive: &DriveTable, input: f64) {

@@ -192,6 +192,8 @@ pub struct StruckString {
     exciter: Exciter,
     hammer: HammerState,
     tangent: TangentState,
+    /// [`ModalBank::kick`] factors for a motion of the bridge end (empty until prepared).
+    bridge_kick: Vec<f64>,
 }
 
 impl StruckString {
@@ -241,6 +243,7 @@ impl StruckString {
                 decay_per_sample: 0.0,
                 acceleration_m_s2: 0.0,
             },
+            bridge_kick: Vec::new(),
         }
     }
 
@@ -324,6 +327,24 @@ impl StruckString {
         let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, position)).collect();
         let drive = self.drive_at(&self.audio, Hold::Linear, |_| 0.0, |i| shape[i]);
         self.pluck_tables = Some(PluckTables { position, drive });
+    }
+
+    /// Build the table for moving the string's bridge end ([`Self::move_bridge`]). Allocates.
+    pub fn prepare_bridge_drive(&mut self) {
+        // The bridge end x = 0 moving by u: y = u (1 - x / L) + w, and the line's
+        // load -mu u'' (1 - x / L) projects onto mode n as -2 u'' / (n pi).
+        let gains: Vec<f64> =
+            self.string.modes.iter().map(|m| -2.0 / (m.number as f64 * std::f64::consts::PI)).collect();
+        self.bridge_kick = self.bank.kick_table(&gains);
+    }
+
+    /// The bridge under the string has changed its velocity by `dv_m_s` since the
+    /// last sample (pushed by other strings): every mode takes its share of the
+    /// jump. Needs [`Self::prepare_bridge_drive`] first (does nothing otherwise).
+    ///
+    /// Allocates: no.
+    pub fn move_bridge(&mut self, dv_m_s: f64) {
+        self.bank.kick(&self.bridge_kick, dv_m_s);
     }
 
     /// Throw a hammer at the string as it is now. Allocates only when the hammer

@@ -152,10 +152,82 @@ fn dampers_pedals_and_half_pedal() {
 }
 
 #[test]
-fn santoor_courses_ring_on_after_key_up() {
-    let events = [(0.0, Event::NoteOn { key: 62, velocity: 0.8 }), (0.1, Event::NoteOff { key: 62 })];
-    let out = render(&mut synth(InstrumentKind::Santoor), 1.0, &events, 512);
-    assert!(rms(window(&out, 0.8, 1.0)) > 0.2 * rms(window(&out, 0.05, 0.1)), "no dampers on a santoor");
+fn santoor_and_dulcimer_note_offs_change_nothing() {
+    for kind in [InstrumentKind::Santoor, InstrumentKind::Dulcimer] {
+        let strike = (0.0, Event::NoteOn { key: 62, velocity: 0.8 });
+        let held = render(&mut synth(kind), 1.0, &[strike], 512);
+        let released = render(&mut synth(kind), 1.0, &[strike, (0.1, Event::NoteOff { key: 62 })], 512);
+        assert!(rms(window(&held, 0.8, 1.0)) > 0.2 * rms(window(&held, 0.05, 0.1)), "{kind}: no ringing");
+        assert!(held.iter().zip(&released).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind}: the note-off acted");
+    }
+}
+
+#[test]
+fn a_santoor_restrike_adds_to_the_ringing_string() {
+    let (first, second) = (Event::NoteOn { key: 69, velocity: 0.6 }, Event::NoteOn { key: 69, velocity: 0.6 });
+    let once = render(&mut synth(InstrumentKind::Santoor), 0.6, &[(0.0, first)], 64);
+    let fresh = render(&mut synth(InstrumentKind::Santoor), 0.6, &[(0.3, second)], 64);
+    let twice = render(&mut synth(InstrumentKind::Santoor), 0.6, &[(0.0, first), (0.3, second)], 64);
+    // Up to the re-strike, the first note alone.
+    let i = (0.3 * FS) as usize;
+    assert!(twice[..i].iter().zip(&once[..i]).all(|(a, b)| a.to_bits() == b.to_bits()));
+    // After it: not a fresh strike from rest, but the ringing string struck again
+    // (how much the old ringing and the new strike add up depends on how the
+    // string under the mallet was moving when it arrived).
+    let after = |x: &[f32]| window(x, 0.35, 0.6).to_vec();
+    let (t, f, o) = (after(&twice), after(&fresh), after(&once));
+    let from_fresh: Vec<f32> = t.iter().zip(&f).map(|(a, b)| a - b).collect();
+    assert!(rms(&from_fresh) > 0.3 * rms(&o), "the re-strike forgot the ringing");
+    // And no click where the mallet lands.
+    let steps = |a: usize, b: usize| twice[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
+    assert!(steps(i - 2, i + 2) <= 1.5 * steps(i - 200, i - 2), "a jump at the re-strike");
+}
+
+#[test]
+fn a_cimbalom_is_damped_unless_the_pedal_is_down() {
+    let decay = |pedal: f32| {
+        let events = [(0.0, Event::Sustain(pedal)), (0.01, Event::NoteOn { key: 60, velocity: 0.8 })];
+        let out = render(&mut synth(InstrumentKind::Cimbalom), 1.5, &events, 512);
+        rms(window(&out, 1.2, 1.5)) / rms(window(&out, 0.05, 0.15))
+    };
+    let (free, damped) = (decay(1.0), decay(0.0));
+    assert!(free > 0.1, "the pedal should let it ring: {free}");
+    assert!(damped < 0.01 * free, "the damper bar should stop it: {damped} vs {free}");
+    // A note-off changes nothing either way.
+    let events = [(0.0, Event::Sustain(1.0)), (0.01, Event::NoteOn { key: 60, velocity: 0.8 })];
+    let held = render(&mut synth(InstrumentKind::Cimbalom), 0.5, &events, 512);
+    let mut with_off = events.to_vec();
+    with_off.push((0.1, Event::NoteOff { key: 60 }));
+    let released = render(&mut synth(InstrumentKind::Cimbalom), 0.5, &with_off, 512);
+    assert!(held.iter().zip(&released).all(|(a, b)| a.to_bits() == b.to_bits()));
+}
+
+/// Spectral centroid of `x`, Hz (a plain DFT up to 8 kHz in 50 Hz steps).
+fn centroid_hz(x: &[f32]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for f in (1..160).map(|i| i as f64 * 50.0) {
+        let (mut re, mut im) = (0.0, 0.0);
+        for (k, v) in x.iter().enumerate() {
+            let ph = 2.0 * std::f64::consts::PI * f * k as f64 / FS;
+            re += *v as f64 * ph.cos();
+            im += *v as f64 * ph.sin();
+        }
+        let m = (re * re + im * im).sqrt();
+        num += f * m;
+        den += m;
+    }
+    num / den
+}
+
+#[test]
+fn the_mod_wheel_softens_the_mallets() {
+    let strike = |wheel: f32| {
+        let events = [(0.0, Event::ModWheel(wheel)), (0.01, Event::NoteOn { key: 57, velocity: 0.8 })];
+        let out = render(&mut synth(InstrumentKind::Santoor), 0.3, &events, 256);
+        centroid_hz(window(&out, 0.02, 0.12))
+    };
+    let (hard, soft) = (strike(0.0), strike(1.0));
+    assert!(soft < 0.8 * hard, "a softer mallet should sound darker: {hard:.0} Hz -> {soft:.0} Hz");
 }
 
 #[test]

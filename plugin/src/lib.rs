@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 
 use nice_plug::prelude::*;
 use nice_plug_egui::{EguiEditor, EguiEditorState};
-use struck_engine::synth::{Controls, Delivery, Event, Instrument, Synth, TimedEvent, Workshop};
+use struck_engine::synth::{Controls, Delivery, Event, Instrument, PressureRouter, Synth, TimedEvent, Workshop};
 
 use crate::editor::{ScopeFeed, SharedScope, StruckEditor};
 use crate::params::StruckParams;
@@ -26,8 +26,8 @@ use crate::params::StruckParams;
 /// Engine events one `process` call gathers before rendering what it has so far
 /// (an incoming event becomes at most [`MAX_EVENTS_PER_HOST_EVENT`] of them).
 pub const EVENT_CAPACITY: usize = 4096;
-/// CC 121 (reset all controllers) becomes four engine events.
-const MAX_EVENTS_PER_HOST_EVENT: usize = 4;
+/// Channel pressure becomes one engine event per key held on the channel.
+const MAX_EVENTS_PER_HOST_EVENT: usize = 128;
 /// Keys the synth can sound at once, at most (the polyphony parameter's top).
 pub const MAX_VOICES: u32 = 128;
 
@@ -232,6 +232,7 @@ pub struct Performer {
     events: Vec<TimedEvent>,
     /// Who struck each key last (note id, channel), to name the voice when it ends.
     voices: [(VoiceId, u8); 128],
+    pressure: PressureRouter,
     reset_pending: bool,
 }
 
@@ -243,6 +244,7 @@ impl Performer {
             delivery,
             events: Vec::with_capacity(EVENT_CAPACITY),
             voices: [(None, 0); 128],
+            pressure: PressureRouter::default(),
             reset_pending: false,
         }
     }
@@ -309,11 +311,22 @@ impl Performer {
         let mut push = |event: Event| self.events.push(TimedEvent::new(time, event));
         match event {
             NoteEvent::NoteOn { key: Key::Number(key), velocity, voice_id, channel, .. } if key < 128 => {
-                self.voices[key as usize] = (voice_id.id(), channel.number().unwrap_or(0));
+                let channel = channel.number().unwrap_or(0);
+                self.voices[key as usize] = (voice_id.id(), channel);
                 push(Event::NoteOn { key, velocity });
+                self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
-            NoteEvent::NoteOff { key: Key::Number(key), .. } if key < 128 => push(Event::NoteOff { key }),
+            NoteEvent::NoteOff { key: Key::Number(key), .. } if key < 128 => {
+                self.pressure.note_off(key);
+                push(Event::NoteOff { key });
+            }
             NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
+            NoteEvent::PolyPressure { key: Key::Number(key), pressure, .. } if key < 128 => {
+                push(Event::Pressure { key, pressure })
+            }
+            NoteEvent::MidiChannelPressure { channel, pressure, .. } => {
+                self.pressure.channel_pressure(channel, pressure, push)
+            }
             // The engine has no per-key choke: the key's damper falls (or it rings on
             // where it has none), as after a note-off.
             NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => push(Event::NoteOff { key }),
@@ -436,7 +449,8 @@ mod tests {
             [Event::Sustain(0.0), Event::Sostenuto(0.0), Event::UnaCorda(0.0), Event::PitchBend(0.0)]
         );
         assert_eq!(translated(cc(0, 123, 0.0)), [Event::AllNotesOff]);
-        assert_eq!(translated(cc(0, 1, 0.3)), []);
+        assert_eq!(translated(cc(0, 1, 0.3)), [Event::ModWheel(0.3)]);
+        assert_eq!(translated(cc(0, 2, 0.3)), []);
         assert_eq!(translated(note_on(0, 60, 0.25, 3, 1)), [Event::NoteOn { key: 60, velocity: 0.25 }]);
         assert_eq!(translated(note_off(0, 60)), [Event::NoteOff { key: 60 }]);
         let wildcard_off = NoteEvent::NoteOff {
@@ -449,6 +463,33 @@ mod tests {
         assert_eq!(translated(wildcard_off), [Event::AllNotesOff]);
         let bend = NoteEvent::MidiPitchBend { timing: 0, channel: 0, value: 1.0 };
         assert_eq!(translated(bend), [Event::PitchBend(1.0)]);
+    }
+
+    #[test]
+    fn pressure_reaches_the_keys_held_on_its_channel() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Clavichord)));
+        let (mut p, _workshop) = performer(&wanted);
+        let channel_pressure =
+            |channel, pressure| NoteEvent::<()>::MidiChannelPressure { timing: 0, channel, pressure };
+        p.translate(note_on(0, 60, 0.5, 1, 0), 0);
+        p.translate(note_on(0, 64, 0.5, 2, 3), 0);
+        p.translate(channel_pressure(3, 0.5), 0);
+        let poly = NoteEvent::<()>::PolyPressure {
+            timing: 0,
+            voice_id: VoiceID::Wildcard,
+            channel: Channel::Number(0),
+            key: Key::Number(60),
+            pressure: 0.75,
+        };
+        p.translate(poly, 0);
+        p.translate(note_off(0, 64), 0);
+        p.translate(channel_pressure(3, 0.0), 0);
+        let pressures: Vec<Event> =
+            p.events.iter().map(|e| e.event).filter(|e| matches!(e, Event::Pressure { .. })).collect();
+        assert_eq!(
+            pressures,
+            [Event::Pressure { key: 64, pressure: 0.5 }, Event::Pressure { key: 60, pressure: 0.75 }]
+        );
     }
 
     #[test]

@@ -25,11 +25,14 @@
 //!   64 and above), CC120 all sound off (a reset: silence within milliseconds),
 //!   CC121 reset all controllers (pedals up, pitch bend centred; RP-015), CC123
 //!   all notes off (and CC124 to CC127, which imply it), and pitch bend (14 bits,
-//!   centre 8192: 0 is -1, 16383 is +1). Everything else (other controllers,
-//!   program changes, aftertouch, SysEx, meta events other than tempo) is ignored.
+//!   centre 8192: 0 is -1, 16383 is +1), CC1 the mod wheel (mallet hardness),
+//!   polyphonic aftertouch (a key's pressure) and channel aftertouch (the
+//!   pressure of every key held on that channel, and of keys pressed there while
+//!   it lasts: MPE files give each note its own channel). Everything else (other
+//!   controllers, program changes, SysEx, meta events other than tempo) is ignored.
 //! - events after a track's End of Track are ignored.
 
-use struck_engine::synth::Event;
+use struck_engine::synth::{Event, PressureRouter};
 
 /// A song longer than this (its last event), s, is refused rather than rendered.
 pub const MAX_SONG_S: f64 = 3600.0;
@@ -95,7 +98,8 @@ enum Timing {
 #[derive(Clone, Copy, Debug)]
 enum Item {
     Tempo(u64),
-    Play(Event),
+    Play { channel: u8, event: Event },
+    ChannelPressure { channel: u8, pressure: f32 },
 }
 
 /// Read a standard MIDI file's bytes into events at `sample_rate_hz`.
@@ -145,6 +149,7 @@ pub fn read(bytes: &[u8], sample_rate_hz: u32, options: ReadOptions) -> Result<S
     let mut events = Vec::with_capacity(items.len());
     let mut tempo_us = DEFAULT_TEMPO_US;
     let mut last_tick = 0u64;
+    let mut pressure = PressureRouter::default();
     // Sum of ticks x tempo in microseconds (metrical), or the tick (timecode).
     let mut elapsed: u128 = 0;
     for (tick, item) in items {
@@ -153,14 +158,27 @@ pub fn read(bytes: &[u8], sample_rate_hz: u32, options: ReadOptions) -> Result<S
             Timing::Timecode { .. } => u128::from(tick - last_tick),
         };
         last_tick = tick;
+        if let Item::Tempo(us) = item {
+            tempo_us = us;
+            continue;
+        }
+        let seconds = clock.seconds(elapsed);
+        if seconds > MAX_SONG_S {
+            return Err(MidiError::TooLong(seconds));
+        }
+        let at = clock.samples(elapsed);
         match item {
-            Item::Tempo(us) => tempo_us = us,
-            Item::Play(event) => {
-                let seconds = clock.seconds(elapsed);
-                if seconds > MAX_SONG_S {
-                    return Err(MidiError::TooLong(seconds));
+            Item::Tempo(_) => {}
+            Item::Play { channel, event } => {
+                events.push((at, event));
+                match event {
+                    Event::NoteOn { key, .. } => events.extend(pressure.note_on(key, channel).map(|e| (at, e))),
+                    Event::NoteOff { key } => pressure.note_off(key),
+                    _ => {}
                 }
-                events.push((clock.samples(elapsed), event));
+            }
+            Item::ChannelPressure { channel, pressure: p } => {
+                pressure.channel_pressure(channel, p, |e| events.push((at, e)))
             }
         }
     }
@@ -275,8 +293,12 @@ fn read_track(
                 {
                     notes_per_key[usize::from(key.as_int())] += 1;
                 }
+                let channel = channel.as_int();
+                if let MidiMessage::ChannelAftertouch { vel } = message {
+                    items.push((tick, Item::ChannelPressure { channel, pressure: f32::from(vel.as_int()) / 127.0 }));
+                }
                 for event in events_of(message) {
-                    items.push((tick, Item::Play(event)));
+                    items.push((tick, Item::Play { channel, event }));
                 }
             }
             _ => {}
@@ -301,6 +323,9 @@ fn events_of(message: midly::MidiMessage) -> impl Iterator<Item = Event> {
             out = Event::from_controller(controller.as_int(), f32::from(value.as_int()) / 127.0);
         }
         MidiMessage::PitchBend { bend } => out[0] = Some(Event::PitchBend(Event::pitch_wheel(bend.0.as_int()))),
+        MidiMessage::Aftertouch { key, vel } => {
+            out[0] = Some(Event::Pressure { key: key.as_int(), pressure: f32::from(vel.as_int()) / 127.0 });
+        }
         _ => {}
     }
     out.into_iter().flatten()
@@ -340,6 +365,52 @@ impl Clock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A format-0 file of `(delta ticks, channel, message)`.
+    fn smf(events: &[(u32, u8, midly::MidiMessage)]) -> Vec<u8> {
+        use midly::{Header, Smf, Track, TrackEvent, TrackEventKind};
+        let mut track: Track = events
+            .iter()
+            .map(|&(delta, channel, message)| TrackEvent {
+                delta: delta.into(),
+                kind: TrackEventKind::Midi { channel: channel.into(), message },
+            })
+            .collect();
+        track.push(TrackEvent { delta: 0.into(), kind: TrackEventKind::Meta(midly::MetaMessage::EndOfTrack) });
+        let smf = Smf {
+            header: Header::new(midly::Format::SingleTrack, midly::Timing::Metrical(480.into())),
+            tracks: vec![track],
+        };
+        let mut bytes = Vec::new();
+        smf.write_std(&mut bytes).unwrap();
+        bytes
+    }
+
+    #[test]
+    fn aftertouch_reaches_the_keys_held_on_its_channel() {
+        use midly::MidiMessage::{Aftertouch, ChannelAftertouch, NoteOff, NoteOn};
+        let bytes = smf(&[
+            (0, 0, NoteOn { key: 60.into(), vel: 100.into() }),
+            (0, 1, NoteOn { key: 64.into(), vel: 100.into() }),
+            (10, 0, ChannelAftertouch { vel: 127.into() }),
+            (10, 1, Aftertouch { key: 64.into(), vel: 127.into() }),
+            (10, 0, NoteOn { key: 67.into(), vel: 100.into() }),
+            (10, 0, NoteOff { key: 60.into(), vel: 0.into() }),
+            (10, 0, ChannelAftertouch { vel: 0.into() }),
+        ]);
+        let song = read(&bytes, 48_000, ReadOptions::default()).unwrap();
+        let pressures: Vec<(u8, f32)> = song
+            .events
+            .iter()
+            .filter_map(|(_, e)| match *e {
+                Event::Pressure { key, pressure } => Some((key, pressure)),
+                _ => None,
+            })
+            .collect();
+        // Channel 1's pressure reaches key 60 only; the poly pressure key 64; key 67,
+        // pressed on channel 1 under pressure, starts with it; the release reaches 67 alone.
+        assert_eq!(pressures, [(60, 1.0), (64, 1.0), (67, 1.0), (67, 0.0)]);
+    }
 
     #[test]
     fn tempo_map_rounds_half_up() {

@@ -71,6 +71,8 @@ pub struct StruckParams {
     pub hammer: HammerParams,
     #[nested(group = "Strings")]
     pub strings: StringParams,
+    #[nested(group = "Tangent")]
+    pub tangent: TangentParams,
     #[nested(group = "Output")]
     pub output: OutputParams,
     /// The layout version of the saved state ([`STATE_VERSION`]).
@@ -115,6 +117,20 @@ pub struct StringParams {
     pub damping: FloatParam,
     #[id = "detn"]
     pub detune: FloatParam,
+}
+
+/// The clavichord's tangents.
+#[derive(Params)]
+pub struct TangentParams {
+    /// How far the tangent lifts the strings (1 = as built, 2 mm on a 0.8 m string).
+    #[id = "tdep"]
+    pub depth: FloatParam,
+    /// How much deeper full aftertouch presses (Bebung).
+    #[id = "bebg"]
+    pub bebung: FloatParam,
+    /// Fretted: neighbouring keys share a pair of strings; the higher tangent wins.
+    #[id = "fret"]
+    pub fretted: BoolParam,
 }
 
 #[derive(Params)]
@@ -168,6 +184,11 @@ impl Default for StruckParams {
                 exponent: scale_param("Felt exponent alpha", 0.5, 2.0),
                 position: scale_param("Strike position", 0.25, 4.0),
             },
+            tangent: TangentParams {
+                depth: scale_param("Tangent depth", 0.5, 2.0),
+                bebung: percent_param("Bebung", 0.25),
+                fretted: BoolParam::new("Fretted", false),
+            },
             strings: StringParams {
                 damping: scale_param("Damping", 0.25, 4.0),
                 detune: FloatParam::new(
@@ -206,7 +227,8 @@ impl StruckParams {
             strike_position: self.hammer.position.value() as f64,
             damping: self.strings.damping.value() as f64,
             unison_detune: self.strings.detune.value() as f64,
-            ..Voicing::default()
+            tangent_depth: self.tangent.depth.value() as f64,
+            fretted: self.tangent.fretted.value(),
         }
     }
 
@@ -229,6 +251,7 @@ impl StruckParams {
             polyphony: self.output.polyphony.value().clamp(1, 128) as usize,
             output_gain: 10f64.powf(self.output.level_db.value() as f64 / 20.0),
             bend_range_semitones: self.output.bend_range.value() as f64,
+            bebung: self.tangent.bebung.value() as f64,
         }
     }
 }
@@ -251,11 +274,15 @@ mod tests {
         let map = p.param_map();
         let ids: Vec<&str> = map.iter().map(|(id, _, _)| id.as_str()).collect();
         let expected =
-            ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "poly", "bend", "gain"];
+            ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
+                .into_iter()
+                .chain(["poly", "bend", "gain"])
+                .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();
         assert_eq!(groups[0], "Instrument");
-        assert_eq!(groups[12], "Output");
+        assert_eq!(groups[10], "Tangent");
+        assert_eq!(groups[15], "Output");
     }
 
     #[test]

@@ -74,6 +74,11 @@ impl InstrumentKind {
         }
     }
 
+    /// Whether it is played with hand-held mallets (the mod wheel covers their heads).
+    pub fn hand_mallets(self) -> bool {
+        matches!(self, InstrumentKind::Santoor | InstrumentKind::Dulcimer | InstrumentKind::Cimbalom)
+    }
+
     /// Exciter speeds (or pluck heights) that velocity 1 and 127 map to by default.
     pub fn touch_range(self) -> TouchRange {
         match self {

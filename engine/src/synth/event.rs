@@ -15,6 +15,14 @@ pub enum Event {
     UnaCorda(f32),
     /// Pitch wheel, -1 to 1 (centre 0); the bend range is a control.
     PitchBend(f32),
+    /// CC1, 0 to 1: the hand-held mallets' heads (santoor, dulcimer, cimbalom),
+    /// from bare wood as voiced (0) to a thick cloth cover,
+    /// [`super::SOFTEST_MALLET`] times the stiffness (1), for the strokes that follow.
+    ModWheel(f32),
+    /// The finger's pressure on a held key, 0 to 1 (polyphonic aftertouch; channel
+    /// pressure and MPE pressure reach each key held on that channel this way). On
+    /// a clavichord it presses the tangent deeper: Bebung.
+    Pressure { key: u8, pressure: f32 },
     /// CC123: every key is released (dampers fall where the pedals allow).
     AllNotesOff,
     /// CC120 / reset: every key falls silent within a few milliseconds, pedals up, bend centred.
@@ -34,8 +42,56 @@ impl TimedEvent {
     }
 }
 
+/// Turns MIDI pressure into [`Event::Pressure`] per key: channel pressure reaches
+/// every key held on its channel (all of them from an ordinary keyboard, one
+/// note's from an MPE controller, which gives every note a channel of its own),
+/// and a key pressed while its channel is under pressure starts with it.
+/// Fixed size: real-time safe.
+#[derive(Clone, Debug)]
+pub struct PressureRouter {
+    /// The channel each held key came on.
+    channel_of: [Option<u8>; 128],
+    /// The last channel pressure of each channel.
+    channel_pressure: [f32; 16],
+}
+
+impl Default for PressureRouter {
+    fn default() -> Self {
+        Self { channel_of: [None; 128], channel_pressure: [0.0; 16] }
+    }
+}
+
+impl PressureRouter {
+    /// A key went down on `channel`: the pressure it starts under, if any.
+    pub fn note_on(&mut self, key: u8, channel: u8) -> Option<Event> {
+        self.channel_of[key as usize & 127] = Some(channel & 15);
+        let pressure = self.channel_pressure[channel as usize & 15];
+        (pressure > 0.0).then_some(Event::Pressure { key, pressure })
+    }
+
+    /// A key came up.
+    pub fn note_off(&mut self, key: u8) {
+        self.channel_of[key as usize & 127] = None;
+    }
+
+    /// Channel pressure on `channel`: one event per key held there, passed to `emit`.
+    pub fn channel_pressure(&mut self, channel: u8, pressure: f32, mut emit: impl FnMut(Event)) {
+        let channel = channel & 15;
+        self.channel_pressure[channel as usize] = pressure;
+        for (key, _) in self.channel_of.iter().enumerate().filter(|(_, c)| **c == Some(channel)) {
+            emit(Event::Pressure { key: key as u8, pressure });
+        }
+    }
+
+    /// Every key up, every channel's pressure released.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
 /// MIDI controllers Struck answers.
 pub mod cc {
+    pub const MOD_WHEEL: u8 = 1;
     pub const SUSTAIN: u8 = 64;
     pub const SOSTENUTO: u8 = 66;
     pub const UNA_CORDA: u8 = 67;
@@ -51,6 +107,7 @@ impl Event {
     pub fn from_controller(controller: u8, value: f32) -> [Option<Event>; 4] {
         let one = |e| [Some(e), None, None, None];
         match controller {
+            cc::MOD_WHEEL => one(Event::ModWheel(value)),
             cc::SUSTAIN => one(Event::Sustain(value)),
             cc::SOSTENUTO => one(Event::Sostenuto(value)),
             cc::UNA_CORDA => one(Event::UnaCorda(value)),
@@ -78,11 +135,28 @@ mod tests {
     use super::*;
 
     #[test]
+    fn channel_pressure_reaches_the_keys_held_on_its_channel() {
+        let mut router = PressureRouter::default();
+        assert_eq!(router.note_on(60, 0), None);
+        assert_eq!(router.note_on(64, 1), None);
+        let mut got = Vec::new();
+        router.channel_pressure(1, 0.5, |e| got.push(e));
+        assert_eq!(got, [Event::Pressure { key: 64, pressure: 0.5 }]);
+        // A key pressed on a channel under pressure starts with it.
+        assert_eq!(router.note_on(67, 1), Some(Event::Pressure { key: 67, pressure: 0.5 }));
+        router.note_off(64);
+        got.clear();
+        router.channel_pressure(1, 0.25, |e| got.push(e));
+        assert_eq!(got, [Event::Pressure { key: 67, pressure: 0.25 }]);
+    }
+
+    #[test]
     fn controllers_and_the_wheel() {
         assert_eq!(Event::from_controller(64, 0.5), [Some(Event::Sustain(0.5)), None, None, None]);
         assert_eq!(Event::from_controller(121, 1.0).iter().flatten().count(), 4);
         assert_eq!(Event::from_controller(126, 0.0)[0], Some(Event::AllNotesOff));
-        assert_eq!(Event::from_controller(1, 1.0), [None; 4]);
+        assert_eq!(Event::from_controller(1, 1.0), [Some(Event::ModWheel(1.0)), None, None, None]);
+        assert_eq!(Event::from_controller(2, 1.0), [None; 4]);
         assert_eq!(Event::pitch_wheel(0), -1.0);
         assert_eq!(Event::pitch_wheel(8192), 0.0);
         assert_eq!(Event::pitch_wheel(16383), 1.0);

@@ -1,4 +1,12 @@
-//! A key: its strings, its exciter, its damper, and whether it is sounding.
+//! A key: a course of strings, the exciter that plays it, its damper, and whether
+//! it is sounding.
+//!
+//! Usually one MIDI key plays one course. Some instruments play a course from
+//! several keys (a hammered dulcimer's course from either side of its treble
+//! bridge, a fretted clavichord's string pair from two or three tangents): the
+//! key is then the course, and each of those MIDI keys is one of its notes.
+
+use std::ops::Range;
 
 use crate::contact::ContactLaw;
 use crate::hammer::HammerSpec;
@@ -18,25 +26,57 @@ const HAMMER_GONE_AFTER_S: f64 = 0.03;
 /// Una corda: the hammer meets the strings with its less worn, softer felt. The
 /// factor on K is our assumption (the physics reference has no measurement of it).
 const UNA_CORDA_STIFFNESS: f64 = 0.5;
+/// Most notes one course can have (they are kept as bits).
+pub(super) const MAX_NOTES: usize = 32;
+/// Time constant smoothing the finger's pressure on a tangent (aftertouch), s: a
+/// player's Bebung is a few hertz at most, MIDI pressure comes in steps.
+const PRESSURE_SMOOTHING_S: f64 = 0.015;
+/// The strings are retuned when their pitch has moved by more than this ratio
+/// (0.002 cent).
+const RETUNE_THRESHOLD: f64 = 1.0e-6;
+
+/// One way of playing the course.
+struct Note {
+    midi_key: u8,
+    /// The strings its exciter reaches.
+    struck: Range<usize>,
+    exciter: ExciterDesign,
+    /// Its pitch over the course's own.
+    pitch_ratio: f64,
+}
 
 pub(super) struct Key {
+    /// The MIDI key the course is listed under (its first note).
     pub midi_key: u8,
     pub strings: Vec<StruckString>,
-    exciter: ExciterDesign,
+    notes: Vec<Note>,
     damper: Option<DamperDesign>,
+    /// Re Y of the shared bridge point (0: strings not coupled), and the force the
+    /// strings inside and outside the first note's `struck` put on it last sample.
+    bridge_coupling_s_kg: f64,
+    bridge_force_n: [f64; 2],
     pub gain_per_n: f64,
     /// Constant-power pan gains.
     pub pan_left: f64,
     pub pan_right: f64,
     // What the player is doing with it.
     pub active: bool,
-    pub down: bool,
+    /// Notes held down, and notes struck since the key last fell silent (bit i: note i).
+    held: u32,
+    sounded: u32,
     /// Held up by the sostenuto pedal.
     pub sostenuto: bool,
+    /// The note whose pitch the strings speak at (a fretted clavichord: the highest tangent down).
+    speaking: usize,
+    /// Finger pressure 0..=1 (aftertouch), and its smoothed value.
+    pub pressure: f64,
+    pressure_now: f64,
+    /// How much deeper full pressure presses a tangent, as a fraction of its depth.
+    pub bebung: f64,
     /// Damper engagement 0 (lifted) .. 1 (fully on the strings), and the values the poles were last set for.
     damper_now: f64,
     damper_set: f64,
-    bend_set: f64,
+    pitch_set: f64,
     /// Output gain for stealing and resets: `fade` moves by `fade_step` per sample, within 0..=1.
     pub fade: f64,
     pub fade_step: f64,
@@ -47,13 +87,31 @@ pub(super) struct Key {
 impl Key {
     /// Build every table the key will need. Allocates; off the audio thread.
     pub fn build(design: KeyDesign, sample_rate_hz: f64) -> Result<Self, StringError> {
+        let mut notes = vec![Note {
+            midi_key: design.midi_key,
+            struck: design.struck.clone(),
+            exciter: design.exciter,
+            pitch_ratio: 1.0,
+        }];
+        notes.extend(design.shared.iter().map(|s| Note {
+            midi_key: s.midi_key,
+            struck: s.struck.clone(),
+            exciter: s.exciter,
+            pitch_ratio: s.pitch_ratio,
+        }));
+        notes.truncate(MAX_NOTES);
         let mut strings = Vec::with_capacity(design.strings.len());
-        for spec in &design.strings {
+        for (i, spec) in design.strings.iter().enumerate() {
             let mut s = StruckString::new(spec.build()?, sample_rate_hz, DEFAULT_SUBSTEPS);
-            match design.exciter {
-                ExciterDesign::Hammer { position, .. } => s.prepare_hammer(position),
-                ExciterDesign::Tangent { .. } => s.prepare_tangent(),
-                ExciterDesign::Pluck { position } => s.prepare_pluck(position),
+            for note in notes.iter().filter(|n| n.struck.contains(&i)) {
+                match note.exciter {
+                    ExciterDesign::Hammer { position, .. } => s.prepare_hammer(position),
+                    ExciterDesign::Tangent { .. } => s.prepare_tangent(),
+                    ExciterDesign::Pluck { position } => s.prepare_pluck(position),
+                }
+            }
+            if design.bridge_coupling_s_kg > 0.0 {
+                s.prepare_bridge_drive();
             }
             strings.push(s);
         }
@@ -61,47 +119,92 @@ impl Key {
         Ok(Self {
             midi_key: design.midi_key,
             strings,
-            exciter: design.exciter,
+            notes,
             damper: design.damper,
+            bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
+            bridge_force_n: [0.0; 2],
             gain_per_n: design.gain_per_n,
             pan_left: angle.cos() * std::f64::consts::SQRT_2,
             pan_right: angle.sin() * std::f64::consts::SQRT_2,
             active: false,
-            down: false,
+            held: 0,
+            sounded: 0,
             sostenuto: false,
+            speaking: 0,
+            pressure: 0.0,
+            pressure_now: 0.0,
+            bebung: 0.0,
             damper_now: 0.0,
             damper_set: 0.0,
-            bend_set: 1.0,
+            pitch_set: 1.0,
             fade: 1.0,
             fade_step: 0.0,
             level: 0.0,
         })
     }
 
-    /// The string the live view shows: the last of the course, which the hammer
-    /// strikes even under una corda.
-    pub fn watched_string(&self) -> &StruckString {
-        self.strings.last().expect("a key has at least one string")
+    /// The MIDI keys that play this course, with their note numbers.
+    pub fn note_keys(&self) -> impl Iterator<Item = (usize, u8)> + '_ {
+        self.notes.iter().enumerate().map(|(i, n)| (i, n.midi_key))
     }
 
-    /// The key goes down at exciter speed (or pluck height) `touch`.
-    pub fn press(&mut self, touch: f64, una_corda: bool, bend: f64) {
+    /// Whether any of the course's keys is down.
+    pub fn down(&self) -> bool {
+        self.held != 0
+    }
+
+    /// The MIDI keys struck since the key last fell silent, forgotten once read.
+    pub fn take_sounded(&mut self) -> impl Iterator<Item = u8> + '_ {
+        let sounded = std::mem::take(&mut self.sounded);
+        self.notes.iter().enumerate().filter(move |(i, _)| sounded & (1 << i) != 0).map(|(_, n)| n.midi_key)
+    }
+
+    /// The string the live view shows: the last the first note strikes, which a
+    /// hammer reaches even under una corda.
+    pub fn watched_string(&self) -> &StruckString {
+        let last = self.notes[0].struck.end.clamp(1, self.strings.len()) - 1;
+        &self.strings[last]
+    }
+
+    /// Note `note` goes down at exciter speed (or pluck height) `touch`, with the
+    /// mallet's hardness `hardness` times as built.
+    pub fn press(&mut self, note: usize, touch: f64, una_corda: bool, hardness: f64, bend: f64) {
+        let Some(played) = self.notes.get(note) else { return };
+        let bit = 1u32 << note;
         self.active = true;
-        self.down = true;
         if self.fade < 1.0 || self.fade_step < 0.0 {
             self.fade_step = self.fade_step.abs().max(1e-4);
         }
-        // The damper leaves the strings before the hammer arrives.
-        self.damper_now = 0.0;
-        self.set_poles(bend);
-        match self.exciter {
+        // The damper leaves the strings before the hammer arrives (a cimbalom's
+        // damper bar answers the pedal alone).
+        if !self.damper.is_some_and(|d| d.pedal_only) {
+            self.damper_now = 0.0;
+        }
+        if let ExciterDesign::Tangent { .. } = played.exciter {
+            // The higher tangent wins: a lower one under it meets a string it does not
+            // sound, and waits there in case the higher key comes up first.
+            let above = self.held != 0 && self.notes[self.speaking].pitch_ratio > played.pitch_ratio;
+            self.held |= bit;
+            self.pressure = 0.0;
+            if above {
+                return;
+            }
+            self.speaking = note;
+        }
+        self.held |= bit;
+        self.sounded |= bit;
+        let pitch = self.pitch(bend);
+        self.set_poles(pitch);
+        let played = &self.notes[note];
+        let strings = &mut self.strings[played.struck.clone()];
+        match played.exciter {
             ExciterDesign::Hammer { mass_kg, law, position } => {
-                let n = self.strings.len();
+                let n = strings.len();
                 // Una corda shifts the action: the first string of a unison is missed.
                 let skip = usize::from(una_corda && n >= 2);
                 let struck = (n - skip) as f64;
-                let stiffness = law.stiffness * if una_corda { UNA_CORDA_STIFFNESS } else { 1.0 };
-                for s in &mut self.strings[skip..] {
+                let stiffness = law.stiffness * hardness * if una_corda { UNA_CORDA_STIFFNESS } else { 1.0 };
+                for s in &mut strings[skip..] {
                     s.strike(HammerSpec {
                         mass_kg: mass_kg / struck,
                         law: ContactLaw { stiffness: stiffness / struck, exponent: law.exponent },
@@ -111,12 +214,12 @@ impl Key {
                 }
             }
             ExciterDesign::Tangent { displacement_m, .. } => {
-                for s in &mut self.strings {
+                for s in strings {
                     s.press_tangent(TangentSpec { speed_m_s: touch, displacement_m });
                 }
             }
             ExciterDesign::Pluck { position } => {
-                for s in &mut self.strings {
+                for s in strings {
                     s.pluck(PluckSpec { displacement_m: touch * 1e-3, position });
                     s.release_exciter();
                 }
@@ -124,13 +227,39 @@ impl Key {
         }
     }
 
-    /// The key comes up.
-    pub fn release(&mut self) {
-        self.down = false;
-        if let ExciterDesign::Tangent { .. } = self.exciter {
-            for s in &mut self.strings {
+    /// Note `note` comes up.
+    pub fn release(&mut self, note: usize) {
+        let bit = 1u32 << note;
+        if self.held & bit == 0 {
+            return;
+        }
+        self.held &= !bit;
+        let Some(ExciterDesign::Tangent { .. }) = self.notes.get(note).map(|n| n.exciter) else { return };
+        if self.held == 0 {
+            let struck = self.notes[note].struck.clone();
+            for s in &mut self.strings[struck] {
                 s.lift_tangent(TANGENT_LIFT_S);
             }
+        } else if note == self.speaking {
+            // A lower tangent still down takes over the string (its pitch follows at
+            // the next control tick).
+            let held = self.held;
+            if let Some((i, _)) = self
+                .notes
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| held & (1 << i) != 0)
+                .max_by(|a, b| a.1.pitch_ratio.total_cmp(&b.1.pitch_ratio))
+            {
+                self.speaking = i;
+            }
+        }
+    }
+
+    /// Every note of the course comes up.
+    pub fn release_all(&mut self) {
+        for note in 0..self.notes.len() {
+            self.release(note);
         }
     }
 
@@ -138,14 +267,32 @@ impl Key {
     fn damper_target(&self, sustain: f64) -> f64 {
         match self.damper {
             None => 0.0,
-            Some(_) if self.down || self.sostenuto => 0.0,
+            Some(d) if d.pedal_only => (1.0 - sustain).clamp(0.0, 1.0),
+            Some(_) if self.down() || self.sostenuto => 0.0,
             Some(_) => (1.0 - sustain).clamp(0.0, 1.0),
         }
     }
 
-    /// Once per control block: move the damper, retune for a bend, let go of
-    /// hammers that have flown off, and notice silence. Returns true when the key
-    /// has just fallen silent (it is then inactive and at rest).
+    /// The strings' pitch over their own: the bend, the speaking note's interval
+    /// and, under a tangent, the stretch of the press. A tangent holding the end at
+    /// W raises the tension by the factor 1 + s W^2 and the pitch by its square
+    /// root; the finger's pressure presses deeper by up to `bebung` of the depth
+    /// (Bebung: the pitch follows the finger).
+    fn pitch(&self, bend: f64) -> f64 {
+        let note = &self.notes[self.speaking];
+        let stretch = match note.exciter {
+            ExciterDesign::Tangent { stretch_per_m2, .. } => {
+                let w = self.strings[note.struck.start].tangent_position_m() * (1.0 + self.bebung * self.pressure_now);
+                (1.0 + stretch_per_m2 * w * w).max(0.0).sqrt()
+            }
+            _ => 1.0,
+        };
+        bend * note.pitch_ratio * stretch
+    }
+
+    /// Once per control block: move the damper, retune for a bend or a press, let
+    /// go of hammers that have flown off, and notice silence. Returns true when the
+    /// key has just fallen silent (it is then inactive and at rest).
     pub fn control(&mut self, block_s: f64, sustain: f64, bend: f64, silence: f64) -> bool {
         if self.fade <= 0.0 {
             // Faded out (stolen, reset, or its instrument replaced).
@@ -157,8 +304,10 @@ impl Key {
             let step = block_s / d.travel_s.max(block_s);
             self.damper_now += (target - self.damper_now).clamp(-step, step);
         }
-        if self.damper_now != self.damper_set || bend != self.bend_set {
-            self.set_poles(bend);
+        self.pressure_now += (self.pressure - self.pressure_now) * (1.0 - (-block_s / PRESSURE_SMOOTHING_S).exp());
+        let pitch = self.pitch(bend);
+        if self.damper_now != self.damper_set || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
+            self.set_poles(pitch);
         }
         let mut settled = true;
         let mut bound = 0.0;
@@ -177,27 +326,31 @@ impl Key {
         false
     }
 
-    /// Set every string's free step for the damper's present engagement and `bend`.
-    pub fn set_poles(&mut self, bend: f64) {
+    /// Set every string's free step for the damper's present engagement and `pitch`.
+    fn set_poles(&mut self, pitch: f64) {
         let (rate_s, rate_per_hz_s) = match self.damper {
             Some(d) => (d.rate_s * self.damper_now, d.rate_per_hz_s * self.damper_now),
             None => (0.0, 0.0),
         };
         for s in &mut self.strings {
-            s.set_free_step(rate_s, rate_per_hz_s, bend);
+            s.set_free_step(rate_s, rate_per_hz_s, pitch);
         }
         self.damper_set = self.damper_now;
-        self.bend_set = bend;
+        self.pitch_set = pitch;
     }
 
-    /// At rest and inactive.
+    /// At rest and inactive (the notes struck are kept for [`Self::take_sounded`]).
     pub fn silence(&mut self) {
         for s in &mut self.strings {
             s.silence();
         }
         self.active = false;
-        self.down = false;
+        self.held = 0;
         self.sostenuto = false;
+        self.speaking = 0;
+        self.pressure = 0.0;
+        self.pressure_now = 0.0;
+        self.bridge_force_n = [0.0; 2];
         self.fade = 1.0;
         self.fade_step = 0.0;
         self.level = 0.0;
@@ -206,6 +359,10 @@ impl Key {
     /// Add the key's summed bridge force (N) over `out.len()` samples to `out`,
     /// and the summed contact force to `contact` when given.
     pub fn render(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
+        if self.bridge_coupling_s_kg > 0.0 {
+            self.render_coupled(out, contact);
+            return;
+        }
         for s in &mut self.strings {
             if contact.is_none() && s.process_free(out) {
                 continue;
@@ -220,19 +377,51 @@ impl Key {
         }
     }
 
+    /// [`Self::render`] for a course whose two groups of strings (inside and outside
+    /// the first note's `struck`) share a bridge point: each sample the bridge
+    /// moves under one group's force, at Re Y times it, and drives the other
+    /// group's ends. Each string's own push on the bridge is already among its
+    /// losses, so only the other group's force moves its end here.
+    fn render_coupled(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
+        let inner = self.notes[0].struck.clone();
+        let y = self.bridge_coupling_s_kg;
+        for (t, o) in out.iter_mut().enumerate() {
+            let mut force = [0.0; 2];
+            for (i, s) in self.strings.iter_mut().enumerate() {
+                let tick = s.tick();
+                force[usize::from(!inner.contains(&i))] += tick.bridge_force_n;
+                if let Some(c) = contact.as_deref_mut() {
+                    c[t] += tick.contact_force_n as f32;
+                }
+            }
+            *o += force[0] + force[1];
+            let dv = [y * (force[1] - self.bridge_force_n[1]), y * (force[0] - self.bridge_force_n[0])];
+            for (i, s) in self.strings.iter_mut().enumerate() {
+                s.move_bridge(dv[usize::from(!inner.contains(&i))]);
+            }
+            self.bridge_force_n = force;
+        }
+    }
+
     /// Take over a ringing key of the same instrument whose tables were rebuilt.
     pub fn take_over(&mut self, old: &mut Key, bend: f64) {
         for (new, old) in self.strings.iter_mut().zip(old.strings.iter_mut()) {
             new.take_motion_from(old);
         }
         self.active = old.active;
-        self.down = old.down;
+        self.held = old.held;
+        self.sounded = std::mem::take(&mut old.sounded);
         self.sostenuto = old.sostenuto;
+        self.speaking = old.speaking.min(self.notes.len() - 1);
+        self.pressure = old.pressure;
+        self.pressure_now = old.pressure_now;
+        self.bridge_force_n = old.bridge_force_n;
         self.damper_now = old.damper_now;
         self.fade = old.fade;
         self.fade_step = old.fade_step;
         self.level = old.level;
-        self.set_poles(bend);
+        let pitch = self.pitch(bend);
+        self.set_poles(pitch);
         old.silence();
     }
 }

@@ -18,7 +18,7 @@ mod workshop;
 
 use serde::{Deserialize, Serialize};
 
-pub use event::{Event, TimedEvent};
+pub use event::{Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
@@ -45,6 +45,12 @@ pub const MIN_SAMPLE_RATE_HZ: f64 = 1_000.0;
 pub const MAX_SAMPLE_RATE_HZ: f64 = 768_000.0;
 /// Chunk length while the live view records a strike.
 const SCOPE_CHUNK: usize = 8;
+/// A hand-held mallet's contact stiffness at full mod wheel, times as voiced: a
+/// thick cloth-covered head against the bare wood of the wheel at rest. The range
+/// is wide because a light mallet on a linear spring of 1e6 N/m per string is
+/// stiff against the string's impedance (damping ratio sqrt(K M) / 4 Z0 near 25):
+/// the head's spring only shapes the stroke once it falls below about 1e4 N/m.
+pub const SOFTEST_MALLET: f64 = 1.0e-3;
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
 const DC_BLOCK_HZ: f64 = 5.0;
 
@@ -82,6 +88,9 @@ pub struct Controls {
     pub output_gain: f64,
     /// Pitch-wheel range, semitones.
     pub bend_range_semitones: f64,
+    /// Bebung: how much deeper full aftertouch presses a clavichord tangent, as a
+    /// fraction of its depth (the pitch rises with the square of the depth).
+    pub bebung: f64,
 }
 
 impl Default for Controls {
@@ -93,6 +102,7 @@ impl Default for Controls {
             polyphony: 64,
             output_gain: 1.0,
             bend_range_semitones: 2.0,
+            bebung: 0.25,
         }
     }
 }
@@ -111,7 +121,10 @@ impl Controls {
 /// Every key of one instrument, built for one sample rate.
 pub struct Instrument {
     settings: InstrumentSettings,
+    /// The courses, each at the index of the MIDI key it is listed under.
     keys: Vec<Option<Key>>,
+    /// For every MIDI key: the course it plays and which of its notes it is.
+    route: [Option<(u8, u8)>; 128],
     touch: TouchRange,
 }
 
@@ -134,19 +147,25 @@ impl Instrument {
             spec.build().ok().map(|s| s.inharmonicity)
         });
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
+        let mut route = [None; 128];
         for design in designs {
             let midi_key = design.midi_key;
             let design = tuned(design, &frequencies_hz);
             {
                 match Key::build(design, fs) {
-                    Ok(key) => keys[midi_key as usize] = Some(key),
+                    Ok(key) => {
+                        for (note, k) in key.note_keys() {
+                            route[k as usize & 127] = Some((midi_key, note as u8));
+                        }
+                        keys[midi_key as usize] = Some(key);
+                    }
                     // At a very low sample rate the top keys have no partial below Nyquist: they stay silent.
                     Err(StringError::NoModes { .. }) => {}
                     Err(source) => return Err(BuildError::String { kind: settings.kind, key: midi_key, source }),
                 }
             }
         }
-        Ok(Self { settings: settings.clone(), keys, touch: settings.kind.touch_range() })
+        Ok(Self { settings: settings.clone(), keys, route, touch: settings.kind.touch_range() })
     }
 
     pub fn settings(&self) -> &InstrumentSettings {
@@ -155,6 +174,12 @@ impl Instrument {
 
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
         self.keys.iter().flatten().filter(|k| k.active)
+    }
+
+    /// The course `midi_key` plays and its note there.
+    fn route(&mut self, midi_key: u8) -> Option<(&mut Key, usize)> {
+        let (home, note) = (*self.route.get(midi_key as usize)?)?;
+        Some((self.keys[home as usize].as_mut()?, note as usize))
     }
 }
 
@@ -200,6 +225,8 @@ pub struct Synth {
     sustain: f64,
     sostenuto: bool,
     una_corda: bool,
+    /// Hand-held mallets' hardness from the mod wheel: a factor on the contact stiffness.
+    hardness: f64,
     /// Pitch-wheel position -1..=1 and the frequency ratio it gives.
     wheel: f64,
     bend: f64,
@@ -228,6 +255,7 @@ impl Synth {
             sustain: 0.0,
             sostenuto: false,
             una_corda: false,
+            hardness: 1.0,
             wheel: 0.0,
             bend: 1.0,
             clock: 0,
@@ -266,9 +294,10 @@ impl Synth {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
     }
 
-    /// Whether `midi_key` of the instrument now playing is sounding.
+    /// Whether the strings `midi_key` plays on the instrument now playing are sounding.
     pub fn key_sounding(&self, midi_key: u8) -> bool {
-        self.current.keys.get(midi_key as usize).and_then(|k| k.as_ref()).is_some_and(|k| k.active)
+        let Some(Some((home, _))) = self.current.route.get(midi_key as usize) else { return false };
+        self.current.keys[*home as usize].as_ref().is_some_and(|k| k.active)
     }
 
     /// Keys that fell silent during the last [`Self::process`] call.
@@ -369,7 +398,7 @@ impl Synth {
                 let down = v >= 0.5;
                 if down && !self.sostenuto {
                     for k in self.current.keys.iter_mut().flatten() {
-                        k.sostenuto = k.active && k.down;
+                        k.sostenuto = k.active && k.down();
                     }
                 } else if !down {
                     for k in self.current.keys.iter_mut().flatten() {
@@ -379,24 +408,31 @@ impl Synth {
                 self.sostenuto = down;
             }
             Event::UnaCorda(v) => self.una_corda = v >= 0.5,
+            Event::ModWheel(v) => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
+            Event::Pressure { key, pressure } => {
+                if let Some((k, _)) = self.current.route(key) {
+                    k.pressure = (pressure as f64).clamp(0.0, 1.0);
+                }
+            }
             Event::PitchBend(v) => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
             }
             Event::AllNotesOff => {
-                for k in self.current.keys.iter_mut().flatten().filter(|k| k.down) {
-                    k.release();
+                for k in self.current.keys.iter_mut().flatten().filter(|k| k.down()) {
+                    k.release_all();
                 }
             }
             Event::Reset => {
                 let fs = self.current.settings.sample_rate_hz;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.active) {
-                    k.release();
+                    k.release_all();
                     k.fade_step = -1.0 / (STEAL_FADE_S * fs);
                 }
                 self.sustain = 0.0;
                 self.sostenuto = false;
                 self.una_corda = false;
+                self.hardness = 1.0;
                 self.wheel = 0.0;
                 self.bend = 1.0;
             }
@@ -404,26 +440,24 @@ impl Synth {
     }
 
     fn note_on(&mut self, midi_key: u8, velocity: f64) {
-        let index = midi_key as usize;
-        if index >= 128 || self.current.keys[index].is_none() {
-            return;
-        }
-        let was_active = self.current.keys[index].as_ref().is_some_and(|k| k.active);
-        if !was_active {
+        let Some((key, _)) = self.current.route(midi_key) else { return };
+        if !key.active {
             self.make_room();
         }
         let touch = self.controls.touch(self.current.touch, velocity);
-        let (una_corda, bend) = (self.una_corda, self.bend);
-        let key = self.current.keys[index].as_mut().expect("checked above");
-        key.press(touch, una_corda, bend);
-        self.scope.struck(midi_key);
+        // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
+        let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
+        let (una_corda, bend, bebung) = (self.una_corda, self.bend, self.controls.bebung);
+        let Some((key, note)) = self.current.route(midi_key) else { return };
+        key.bebung = bebung;
+        key.press(note, touch, una_corda, hardness, bend);
+        let home = key.midi_key;
+        self.scope.struck(home);
     }
 
     fn note_off(&mut self, midi_key: u8) {
-        if let Some(Some(key)) = self.current.keys.get_mut(midi_key as usize)
-            && key.down
-        {
-            key.release();
+        if let Some((key, note)) = self.current.route(midi_key) {
+            key.release(note);
         }
     }
 
@@ -434,13 +468,10 @@ impl Synth {
             return;
         }
         let fs = self.current.settings.sample_rate_hz;
-        let victim = self
-            .current
-            .keys
-            .iter_mut()
-            .flatten()
-            .filter(|k| k.active && k.fade_step >= 0.0)
-            .min_by(|a, b| (a.down, a.level).partial_cmp(&(b.down, b.level)).unwrap_or(std::cmp::Ordering::Equal));
+        let victim =
+            self.current.keys.iter_mut().flatten().filter(|k| k.active && k.fade_step >= 0.0).min_by(|a, b| {
+                (a.down(), a.level).partial_cmp(&(b.down(), b.level)).unwrap_or(std::cmp::Ordering::Equal)
+            });
         if let Some(k) = victim {
             k.fade_step = -1.0 / (STEAL_FADE_S * fs);
         }
@@ -448,11 +479,16 @@ impl Synth {
 
     fn control(&mut self, time: u32) {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
-        let (sustain, bend) = (self.sustain, self.bend);
+        let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
-                if key.control(block_s, sustain, bend, SILENCE) && self.ended.len() < self.ended.capacity() {
-                    self.ended.push(KeyEnded { time, key: key.midi_key });
+                key.bebung = bebung;
+                if key.control(block_s, sustain, bend, SILENCE) {
+                    for k in key.take_sounded() {
+                        if self.ended.len() < self.ended.capacity() {
+                            self.ended.push(KeyEnded { time, key: k });
+                        }
+                    }
                 }
             }
         }

@@ -1,10 +1,11 @@
-//! Struck's project tasks: `cargo xtask demo` and `cargo xtask test`, with
-//! everything else (`cargo xtask bundle struck --release`, ...) passed on to
-//! nice-plug-xtask.
+//! Struck's project tasks: `cargo xtask demo`, `cargo xtask test` and
+//! `cargo xtask piano-scale`, with everything else (`cargo xtask bundle struck
+//! --release`, ...) passed on to nice-plug-xtask.
 
 mod bundle;
 mod demo_cmd;
 mod packages;
+mod piano_scale;
 mod steps;
 mod test_cmd;
 mod util;
@@ -29,6 +30,10 @@ Usage:
       cargo test --workspace, the VST3 in pedalboard. Stops at the first
       failure. --release runs them on the release build instead of the dev
       profile's (which keeps debug assertions on).
+  cargo xtask piano-scale
+      Write the per-key scales of the piano and the fortepiano,
+      engine/data/piano-scale.csv and fortepiano-scale.csv, from the rules in
+      xtask/src/piano_scale.rs.
   cargo xtask bundle struck [--release]
       nice-plug's bundler: target/bundled/Struck.clap, Struck.vst3 and the
       standalone. Any command not listed here goes to nice-plug-xtask.
@@ -50,6 +55,7 @@ enum Task {
     Help,
     Demo(Options),
     Test(TestOptions),
+    PianoScale,
     /// Anything else, for nice-plug-xtask.
     NicePlug(Vec<String>),
 }
@@ -100,6 +106,11 @@ fn parse(args: &[String]) -> Result<Task> {
             }
             Ok(Task::Test(options))
         }
+        "piano-scale" => match rest.first().map(String::as_str) {
+            None => Ok(Task::PianoScale),
+            Some("-h" | "--help") => Ok(Task::Help),
+            Some(other) => bail!("cargo xtask piano-scale: unknown argument '{other}'\n\n{HELP}"),
+        },
         _ => Ok(Task::NicePlug(args.to_vec())),
     }
 }
@@ -116,6 +127,7 @@ fn main() -> ExitCode {
             }
             Task::Demo(options) => demo_cmd::demo(&options),
             Task::Test(options) => test_cmd::test(&options),
+            Task::PianoScale => piano_scale::run(),
             Task::NicePlug(args) => nice_plug_xtask::main_with_args("cargo xtask", args),
         }
     });
@@ -143,6 +155,7 @@ mod tests {
         assert_eq!(parse(&args("demo --no-install")).unwrap(), Task::Demo(Options { install: false }));
         assert_eq!(parse(&args("bundle struck --release")).unwrap(), Task::NicePlug(args("bundle struck --release")));
         assert_eq!(parse(&args("known-packages")).unwrap(), Task::NicePlug(args("known-packages")));
+        assert_eq!(parse(&args("piano-scale")).unwrap(), Task::PianoScale);
     }
 
     #[test]
@@ -166,5 +179,6 @@ mod tests {
         assert!(parse(&args("test --only")).is_err());
         assert!(parse(&args("test --bogus")).is_err());
         assert!(parse(&args("demo --release")).is_err());
+        assert!(parse(&args("piano-scale --bogus")).is_err());
     }
 }

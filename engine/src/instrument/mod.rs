@@ -23,6 +23,7 @@ mod fortepiano;
 mod harpsichord;
 mod piano;
 mod santoor;
+mod scale;
 
 /// The instruments Struck plays.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

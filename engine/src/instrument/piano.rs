@@ -1,32 +1,27 @@
-//! The piano: 88 keys scaled from the Broadwood baby grand of Euphonics 12.2.1
-//! (Table 1, its C strings; physics reference 1.10), with the Chaigne & Askenfelt
-//! (1994) felt laws of the C2, C4 and C7 hammers.
+//! The piano: the 88 keys of the Broadwood baby grand of Euphonics 12.2, each key's
+//! strings and hammer read from its scale, `engine/data/piano-scale.csv`.
 //!
-//! Between the Cs every quantity is interpolated in key number: speaking length,
-//! diameters and the course's mass per length log-linearly (they change by nearly
-//! constant ratios per octave), strike ratio linearly, hammer mass linearly (the
-//! table's estimates fall by 1 g per octave), the felt's exponent linearly and
-//! log K linearly through C2, C4 and C7, held beyond them. Below C1 the C1-C2
-//! segment is continued for the strings and the hammer.
+//! The scale is derived by `cargo xtask piano-scale` (xtask/src/piano_scale.rs;
+//! the file's header gives the rules) from the Broadwood's C strings (Euphonics
+//! 12.2.1, Table 1; physics reference 1.10), its stringing (17 single wound
+//! strings A0-C#2, 13 wound pairs D2-D3, 58 plain steel triplets D#3-C8) and the
+//! Chaigne & Askenfelt (1994) felt of the C2, C4 and C7 hammers. As the maker did
+//! (Euphonics 12.2, Figs. 8-10), the total impedance of a note's strings runs
+//! smoothly along the keyboard and through both string-count breaks: its largest
+//! step between neighbouring keys is 5.9 % (a wire-size change at B7), where
+//! interpolating the strings' mass and diameters alone drops it by about 35 %
+//! at D3-D#3. Wound strings take their mass from core and wrap, their bending
+//! stiffness from the steel core alone.
 //!
-//! Stringing follows the Broadwood (Euphonics 12.2): 17 single wound strings
-//! (A0-C#2), 13 wound pairs (D2-D3), then 58 plain steel triplets (D#3-C8). A
-//! wound string's mass per length is the course's, interpolated through the
-//! table's total mass / length, divided by its strings: the total impedance
-//! then runs smoothly over the 1-2 break, as the maker intended (Euphonics 12.2,
-//! Fig. 10). Its bending stiffness is the steel core's alone. A plain string's
-//! mass follows from its diameter.
+//! What the scale does not hold is here: the losses, the dampers, the touch and
+//! the output level.
 
 use std::ops::RangeInclusive;
+use std::sync::OnceLock;
 
-use super::common::{
-    Level, Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, damper, detuned_hz, flexible_tension_n, pan,
-    struck_peak_n, unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
-};
-use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
-use crate::string::{Mass, Stiffness, StringSpec, Tuning};
+use super::common::{Level, Losses, Table, damper, pan};
+use super::scale::Scale;
+use super::{KeyDesign, TouchRange, Voicing, key_frequency_hz};
 
 pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
@@ -34,38 +29,8 @@ pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 /// 6.83 m/s), m/s.
 pub(crate) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 7.0 };
 
-/// The last key with a single string, and the last with two (wound) strings.
-const LAST_SINGLE_KEY: u8 = 37;
-const LAST_WOUND_KEY: u8 = 50;
 /// Keys above this have no damper (their strings ring short anyway).
 const LAST_DAMPED_KEY: u8 = 90;
-
-/// Speaking length at C1..C8, m.
-const LENGTH_M: Table =
-    Table(&[(24, 1.013), (36, 0.925), (48, 0.830), (60, 0.639), (72, 0.324), (84, 0.181), (96, 0.096), (108, 0.051)]);
-/// Steel core (or plain wire) diameter at C1..C8, m.
-const CORE_DIAMETER_M: Table = Table(&[
-    (24, 1.21e-3),
-    (36, 1.21e-3),
-    (48, 1.08e-3),
-    (60, 1.00e-3),
-    (72, 0.94e-3),
-    (84, 0.85e-3),
-    (96, 0.82e-3),
-    (108, 0.76e-3),
-]);
-/// Outer diameter of the copper wrapping at C1..C3, m.
-const WRAP_DIAMETER_M: Table = Table(&[(24, 5.80e-3), (36, 3.76e-3), (48, 1.80e-3)]);
-/// The course's mass per length (total mass / length) at C1..C3, kg/m.
-const WOUND_COURSE_MASS_KG_M: Table = Table(&[(24, 0.189 / 1.013), (36, 0.073 / 0.925), (48, 0.0307 / 0.830)]);
-/// Strike position as a fraction of the length from the near (agraffe) end.
-const STRIKE_RATIO: Table =
-    Table(&[(24, 0.135), (36, 0.135), (48, 0.130), (60, 0.125), (72, 0.12), (84, 0.10), (96, 0.09), (108, 0.08)]);
-/// Hammer mass, kg (Broadwood estimates, 12 g at C1 to 5 g at C8).
-const HAMMER_MASS_KG: Table = Table(&[(24, 12.0e-3), (108, 5.0e-3)]);
-/// Felt exponent alpha and stiffness K (N/m^alpha) of the C2, C4 and C7 hammers.
-const FELT_EXPONENT: Table = Table(&[(36, 2.3), (60, 2.5), (96, 3.0)]);
-const FELT_STIFFNESS: Table = Table(&[(36, 4.0e8), (60, 4.5e9), (96, 1.0e12)]);
 
 /// Losses of the strings: steel's internal friction (the engine's default) and a
 /// soundboard bridge of Re Y = 5e-4 s/kg (a drive-point impedance of 2 kN s/m,
@@ -74,113 +39,74 @@ const FELT_STIFFNESS: Table = Table(&[(36, 4.0e8), (60, 4.5e9), (96, 1.0e12)]);
 /// 1 s at C8.
 const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_s_kg: 5.0e-4, tangent: None };
 
-/// Widest detuning in a unison, cents (tuners leave unisons within about 1-2 cents).
-const UNISON_SPREAD_CENTS: f64 = 1.0;
-
 /// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -28 dBFS.
 /// The loudest touch peaks some 24 dB above that ringing in the middle (11 dB of
 /// it the touch: velocity 1 strikes 3.6 times as fast), so the middle could ring
 /// at -25 dBFS at most; the bass, panned left, peaks 2 to 2.6 dB higher in that
 /// channel. -28 keeps the middle near its most and the bass (capped from A0 to
-/// C#2, ringing at -30.7 to -28.3 dBFS) within 3 dB of it.
+/// C#2, ringing at -30.8 to -28.3 dBFS) within 3 dB of it.
 ///
-/// Relative to the peak, the ringing is flat near -24 dB from C2 to C5 and falls
-/// away in the treble (-31 dB at C6, -54 dB at C7, -67 dB at C8): the heavy
-/// hammer stays on the string for more and more of a period, so its push on the
-/// bridge during contact sets the peak while less and less of its energy is left
-/// ringing. From C5 up the peak ceiling caps the gain and the ringing falls short
-/// of the target: -29.7 dBFS at F5, -31 at G5, -35.5 at C6, -54 at C7, -59 to -73
-/// above it (the fit is then rough, 12 dB off at D#7, but the cap decides). The
-/// peak excess follows the real peak within 0.3 dB where the cap applies (it is
-/// up to 1 dB high around the 2-3 string break, where the cap does not apply).
+/// Relative to the peak, the ringing is flat near -24 dB from C2 to C5 (-24.5 dB
+/// at C2, -23.3 at C3, -24.1 at C4, -26.1 at C5) and falls away in the treble
+/// (-33 dB at C6, -54 at C7, -57 to -73 above): the heavy hammer stays on the
+/// string for more and more of a period, so its push on the bridge during contact
+/// sets the peak while less and less of its energy is left ringing. From D5 up the
+/// peak ceiling caps the gain and the ringing falls short of the target: -29.1
+/// dBFS at E5, -30.8 at G5, -34.7 at C6, -53.7 at C7, -58 to -76 above (the fit
+/// is then rough, 13 dB off at E7, but the cap decides). Measured on every key
+/// with the scale of engine/data/piano-scale.csv: the fit holds the ringing of
+/// every uncapped key within 0.3 dB, and the peak excess lies 0 to 0.2 dB above
+/// the real peak wherever the cap applies (loudest peaks -1.5 to -1.7 dBFS).
 pub(super) const LEVEL: Level = Level {
     ring_target_dbfs: -28.0,
     ring_db: Table(&[
-        (21, -26.5),
-        (36, -24.4),
-        (48, -23.2),
-        (60, -24.0),
-        (72, -26.3),
-        (84, -30.7),
-        (96, -54.3),
-        (108, -66.9),
+        (21, -26.9),
+        (27, -25.4),
+        (36, -24.5),
+        (48, -23.3),
+        (60, -24.1),
+        (72, -26.1),
+        (78, -28.2),
+        (84, -32.9),
+        (90, -37.8),
+        (96, -53.8),
+        (102, -63.3),
+        (108, -56.8),
     ]),
-    peak_excess_db: Table(&[(21, -0.2), (29, 0.5), (40, 0.1), (76, -0.95), (108, -0.95)]),
+    peak_excess_db: Table(&[
+        (21, -0.25),
+        (29, 0.55),
+        (40, 0.2),
+        (50, -1.0),
+        (64, -0.75),
+        (76, -0.9),
+        (84, -1.15),
+        (108, -0.7),
+    ]),
 };
 
-/// Number of strings of a key.
-pub(super) fn strings_per_key(midi_key: u8) -> usize {
-    if midi_key <= LAST_SINGLE_KEY {
-        1
-    } else if midi_key <= LAST_WOUND_KEY {
-        2
-    } else {
-        3
-    }
-}
-
-/// The whole hammer's felt law as built, before voicing.
-pub(super) fn felt_law(midi_key: u8) -> ContactLaw {
-    ContactLaw { stiffness: FELT_STIFFNESS.log(midi_key), exponent: FELT_EXPONENT.linear(midi_key) }
+/// The piano's scale, parsed once.
+pub(super) fn scale() -> &'static Scale {
+    static SCALE: OnceLock<Scale> = OnceLock::new();
+    SCALE.get_or_init(|| Scale::compiled_in("engine/data/piano-scale.csv", include_str!("../../data/piano-scale.csv")))
 }
 
 pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
-    let strings = strings_per_key(midi_key);
-    let length_m = LENGTH_M.log_extended(midi_key);
-    let core_m = CORE_DIAMETER_M.log_extended(midi_key);
-    let (mass, outer_diameter_m, mass_per_length_kg_m) = if midi_key <= LAST_WOUND_KEY {
-        let mu = WOUND_COURSE_MASS_KG_M.log_extended(midi_key) / strings as f64;
-        (Mass::PerLengthKgM(mu), Some(WRAP_DIAMETER_M.log_extended(midi_key)), mu)
-    } else {
-        let mass = Mass::SolidWire { diameter_m: core_m, density_kg_m3: STEEL_DENSITY_KG_M3 };
-        (mass, None, wire_mass_per_length_kg_m(core_m, STEEL_DENSITY_KG_M3))
-    };
-    let specs = unison_cents(midi_key, strings, UNISON_SPREAD_CENTS, voicing)
-        .into_iter()
-        .map(|cents| {
-            let spec = StringSpec {
-                length_m,
-                tuning: Tuning::FirstPartialHz(detuned_hz(midi_key, cents)),
-                mass,
-                stiffness: Stiffness::YoungsModulus { modulus_pa: STEEL_MODULUS_PA, bending_diameter_m: core_m },
-                damping: Damping::UniformQ(1.0), // replaced by with_losses
-                max_frequency_hz,
-                outer_diameter_m,
-            };
-            with_losses(spec, &LOSSES, voicing.damping)
-        })
-        .collect();
-
-    let f1_hz = key_frequency_hz(midi_key);
-    let tension_n = flexible_tension_n(length_m, mass_per_length_kg_m, f1_hz);
-    let n = strings as f64;
-    let hammer_mass_kg = HAMMER_MASS_KG.linear_extended(midi_key);
-    let strike_ratio = STRIKE_RATIO.linear(midi_key);
-    let peak_n = struck_peak_n(
-        n * (tension_n * mass_per_length_kg_m).sqrt(),
-        n * tension_n,
-        length_m,
-        strike_ratio,
-        hammer_mass_kg,
-        TOUCH.max,
-    );
+    let row = scale().row(midi_key).expect("the piano's scale holds every key of its compass");
+    let strings = row.strings;
     KeyDesign {
         midi_key,
-        strings: specs,
+        strings: row.string_specs(voicing, &LOSSES, max_frequency_hz),
         struck: 0..strings,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
-        exciter: ExciterDesign::Hammer {
-            mass_kg: hammer_mass_kg * voicing.hammer_mass,
-            law: voiced_law(felt_law(midi_key), voicing),
-            position: voiced_position(strike_ratio, voicing),
-        },
+        exciter: row.hammer(voicing),
         damper: (midi_key <= LAST_DAMPED_KEY).then(|| {
             // 60 dB in 0.45 s at A0 shortening to 0.15 s at F#6.
             let t = (midi_key - KEYS.start()) as f64 / (LAST_DAMPED_KEY - KEYS.start()) as f64;
-            damper(0.45 * (0.15f64 / 0.45).powf(t), 2.0e-3, f1_hz, 0.015)
+            damper(0.45 * (0.15f64 / 0.45).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.015)
         }),
-        gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
+        gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOUCH.max), pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }
@@ -188,41 +114,164 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
 #[cfg(test)]
 mod tests {
     use super::super::common::DECAY_60_DB;
+    use super::super::scale::ScaleRow;
     use super::*;
+    use crate::instrument::ExciterDesign;
+    use crate::string::StringModes;
+
+    fn row(midi_key: u8) -> &'static ScaleRow {
+        scale().row(midi_key).unwrap()
+    }
+
+    /// The strings a key builds (each detuned), with their tension and mass.
+    fn built(midi_key: u8) -> Vec<StringModes> {
+        design(&Voicing::default(), midi_key, 20_000.0).strings.iter().map(|s| s.build().unwrap()).collect()
+    }
+
+    /// The total impedance of the strings a key builds, N s/m.
+    fn built_impedance_ns_m(midi_key: u8) -> f64 {
+        built(midi_key).iter().map(StringModes::impedance_ns_m).sum()
+    }
 
     #[test]
-    fn c2_c4_c7_hammers_have_the_chaigne_askenfelt_felt() {
+    fn the_scale_file_covers_the_keyboard_with_the_broadwood_stringing() {
+        let scale = scale();
+        assert_eq!(scale.keys(), KEYS);
+        let count = |n: usize| scale.rows().iter().filter(|r| r.strings == n).count();
+        assert_eq!((count(1), count(2), count(3)), (17, 13, 58));
+        for r in scale.rows() {
+            let n = match r.midi_key {
+                ..=37 => 1,
+                38..=50 => 2,
+                _ => 3,
+            };
+            assert_eq!(r.strings, n, "{r}");
+            assert_eq!(r.is_wound(), r.midi_key <= 50, "{r}");
+            assert_eq!(r.material, if r.is_wound() { "steel+copper" } else { "steel" }, "{r}");
+            assert_eq!(design(&Voicing::default(), r.midi_key, 20_000.0).strings.len(), n);
+        }
+    }
+
+    #[test]
+    fn the_strings_built_are_the_strings_of_the_scale() {
+        // The engine's own tension, impedance and inharmonicity agree with the
+        // derivation's, for the string tuned exactly to the key.
+        for r in scale().rows() {
+            let mut spec = design(&Voicing::default(), r.midi_key, 20_000.0).strings[0].clone();
+            spec.tuning = crate::string::Tuning::FirstPartialHz(key_frequency_hz(r.midi_key));
+            let s = spec.build().unwrap();
+            assert!((s.tension_n / r.tension_n - 1.0).abs() < 1e-3, "{r}: {} N", s.tension_n);
+            let z = r.strings as f64 * s.impedance_ns_m();
+            assert!((z / r.total_impedance_ns_m - 1.0).abs() < 1e-3, "{r}: {z} N s/m");
+            assert!((s.inharmonicity / r.inharmonicity - 1.0).abs() < 1e-3, "{r}: B {}", s.inharmonicity);
+        }
+    }
+
+    #[test]
+    fn c_strings_match_the_broadwood_table() {
+        // Euphonics 12.2.1, Table 1: length m, strings, tension per string N (T/L
+        // times L over the strings, a flexible string's), total impedance 2 f M.
+        // Plain wire comes in 0.025 mm steps, so the tension of a plain C string
+        // is within half a step of the table's (2.5 %).
+        let table = [
+            (24, 1.013, 819.0, 12.36),
+            (36, 0.925, 1155.0, 9.55),
+            (48, 0.830, 875.0, 8.03),
+            (60, 0.639, 684.0, 6.12),
+            (72, 0.324, 626.0, 5.55),
+            (84, 0.181, 635.0, 5.02),
+            (96, 0.096, 645.0, 4.81),
+            (108, 0.051, 643.0, 4.52),
+        ];
+        for (key, length_m, tension_n, impedance_ns_m) in table {
+            let r = row(key);
+            assert!((r.length_m - length_m).abs() < 1e-4, "{r}: {} m", r.length_m);
+            let f = key_frequency_hz(key);
+            let flexible_tension_n = 4.0 * r.length_m * r.length_m * r.mass_per_length_kg_m * f * f;
+            assert!((flexible_tension_n / tension_n - 1.0).abs() < 0.025, "{r}: {flexible_tension_n} N");
+            let z = built_impedance_ns_m(key);
+            assert!((z / impedance_ns_m - 1.0).abs() < 0.05, "{r}: {z} N s/m");
+        }
+        // The wound Cs keep the table's core (to the nearest 0.025 mm) and wrap.
+        for (key, core_m, wrap_m) in [(24, 1.21e-3, 5.80e-3), (36, 1.21e-3, 3.76e-3), (48, 1.08e-3, 1.80e-3)] {
+            let r = row(key);
+            assert!((r.core_diameter_m - core_m).abs() <= 0.0126e-3, "{r}: core {}", r.core_diameter_m);
+            assert!((r.wrap_diameter_m - wrap_m).abs() <= 0.05e-3, "{r}: wrap {}", r.wrap_diameter_m);
+        }
+    }
+
+    #[test]
+    fn total_impedance_runs_smoothly_through_both_string_count_breaks() {
+        // Less than 30 % between any two neighbours; the scale keeps it under 6 %.
+        let z: Vec<(u8, f64)> = KEYS.map(|k| (k, built_impedance_ns_m(k))).collect();
+        for w in z.windows(2) {
+            let step = (w[1].1 / w[0].1 - 1.0).abs();
+            assert!(step < 0.3, "keys {} and {}: {:.1} %", w[0].0, w[1].0, 100.0 * step);
+            assert!(step < 0.06, "keys {} and {}: {:.1} %", w[0].0, w[1].0, 100.0 * step);
+        }
+        // From C1 to C8 it falls as the table's does, from 12.4 to 4.5 N s/m.
+        assert!(z.windows(2).all(|w| w[1].1 < 1.02 * w[0].1));
+    }
+
+    #[test]
+    fn the_strings_are_sanely_stressed() {
+        for r in scale().rows() {
+            let stress_pa = r.tension_n / (std::f64::consts::PI * r.core_diameter_m.powi(2) / 4.0);
+            if r.is_wound() {
+                // The Broadwood's wound Cs run their cores at 0.7 to 1.0 GPa.
+                assert!((0.6e9..1.05e9).contains(&stress_pa), "{r}: {stress_pa} Pa");
+                assert!(r.tension_n > 600.0, "{r}");
+            } else {
+                // Near 650 N; a plain wire's stress, rho (2 L f)^2, is set by its
+                // length: 0.46 GPa at D#3 rising to 1.4 GPa at C8 (the table's own
+                // C8), about half what music wire of that size breaks at.
+                assert!((600.0..700.0).contains(&r.tension_n), "{r}: {} N", r.tension_n);
+                assert!((0.4e9..1.45e9).contains(&stress_pa), "{r}: {stress_pa} Pa");
+            }
+        }
+    }
+
+    #[test]
+    fn c2_c4_c7_hammers_have_the_chaigne_askenfelt_felt_and_the_laws_continue_beyond() {
         for (key, stiffness, exponent) in [(36, 4.0e8, 2.3), (60, 4.5e9, 2.5), (96, 1.0e12, 3.0)] {
             let d = design(&Voicing::default(), key, 20_000.0);
             let ExciterDesign::Hammer { law, .. } = d.exciter else { panic!("not a hammer") };
-            assert!((law.stiffness / stiffness - 1.0).abs() < 1e-12, "{key}: {law:?}");
-            assert!((law.exponent - exponent).abs() < 1e-12, "{key}: {law:?}");
+            assert!((law.stiffness / stiffness - 1.0).abs() < 1e-5, "{key}: {law:?}");
+            assert!((law.exponent - exponent).abs() < 1e-4, "{key}: {law:?}");
         }
-        // Held beyond C2 and C7.
-        assert_eq!(felt_law(21), felt_law(36));
-        assert_eq!(felt_law(108), felt_law(96));
+        // Continued, not held: alpha falls 0.2 per 24 keys below C2 and rises 0.5
+        // per 36 keys above C7; log K follows.
+        let (a0, c8) = (row(21).contact_law(), row(108).contact_law());
+        assert!((a0.exponent - (2.3 - 15.0 * 0.2 / 24.0)).abs() < 1e-4, "{a0:?}");
+        assert!((c8.exponent - (3.0 + 12.0 * 0.5 / 36.0)).abs() < 1e-4, "{c8:?}");
+        let log_slope = |k0: f64, k1: f64, keys: f64| (k1 / k0).ln() / keys;
+        assert!((log_slope(a0.stiffness, 4.0e8, 15.0) / log_slope(4.0e8, 4.5e9, 24.0) - 1.0).abs() < 1e-3);
+        assert!((log_slope(1.0e12, c8.stiffness, 12.0) / log_slope(4.5e9, 1.0e12, 36.0) - 1.0).abs() < 1e-3);
+        // Strike ratio about 1/8, falling in the treble; hammers 12 g at C1 to 5 g at C8.
+        assert_eq!((row(21).strike_ratio, row(60).strike_ratio, row(108).strike_ratio), (0.135, 0.125, 0.08));
+        assert!((row(24).hammer_mass_kg - 12.0e-3).abs() < 1e-9 && (row(108).hammer_mass_kg - 5.0e-3).abs() < 1e-9);
     }
 
     #[test]
-    fn strings_per_note_follow_the_broadwood() {
-        let count = |key| design(&Voicing::default(), key, 20_000.0).strings.len();
-        assert_eq!(count(24), 1); // C1
-        assert_eq!(count(36), 1); // C2
-        assert_eq!(count(48), 2); // C3
-        assert_eq!(count(60), 3); // C4
-        let counts: Vec<usize> = KEYS.map(strings_per_key).collect();
-        assert_eq!(counts.iter().filter(|&&n| n == 1).count(), 17);
-        assert_eq!(counts.iter().filter(|&&n| n == 2).count(), 13);
-        assert_eq!(counts.iter().filter(|&&n| n == 3).count(), 58);
-    }
-
-    #[test]
-    fn c_strings_match_the_table() {
-        // Tension per string from Table 1 (T/L times L over the strings), within 1.5 %.
-        for (key, tension_n) in [(24, 819.0), (36, 1155.0), (48, 875.0), (60, 684.0), (84, 635.0), (108, 643.0)] {
-            let d = design(&Voicing::default(), key, 20_000.0);
-            let s = d.strings[d.strings.len() / 2].build().unwrap();
-            assert!((s.tension_n / tension_n - 1.0).abs() < 0.015, "{key}: {} N", s.tension_n);
+    fn unisons_beat_and_singles_do_not() {
+        for r in scale().rows() {
+            let pitches: Vec<f64> = design(&Voicing::default(), r.midi_key, 20_000.0)
+                .strings
+                .iter()
+                .map(|s| match s.tuning {
+                    crate::string::Tuning::FirstPartialHz(f) => f,
+                    crate::string::Tuning::TensionN(_) => f64::NAN,
+                })
+                .collect();
+            let spread_cents = 1200.0
+                * (pitches.iter().cloned().fold(f64::MIN, f64::max) / pitches.iter().cloned().fold(f64::MAX, f64::min))
+                    .log2();
+            if r.strings == 1 {
+                assert_eq!(spread_cents, 0.0);
+            } else {
+                // About 1 cent at C4: a pair or a triplet beats.
+                assert!((0.5..3.5).contains(&spread_cents), "{r}: {spread_cents} cents");
+            }
         }
     }
 

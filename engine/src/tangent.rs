@@ -11,6 +11,18 @@
 //! acceleration 2 (-1)^n z'' / (n pi). The jump of the tangent's speed from 0 to V0
 //! at t = 0 starts each mode with the velocity 2 (-1)^n V0 / (n pi). The straight
 //! line z x / L adds T z / L to the force at both ends.
+//!
+//! Holding the string's end at W stretches the string on both sides of the
+//! tangent: the speaking length L2 (to the bridge) and the damped length L1
+//! (through the listing felt to the hitch pin). Each becomes longer by about
+//! W^2 / (2 L), and as the string slides over the tangent the tension evens out
+//! over L1 + L2:
+//!
+//!   dT / T = E A (1 / (2 L1) + 1 / (2 L2)) W^2 / ((L1 + L2) T),
+//!
+//! which raises the pitch by the factor sqrt(1 + dT / T): quadratic in W, a few
+//! cents at W = 2 mm (physics reference 1.6; the seed's Fig. 29, after Thwaites &
+//! Fletcher 1981).
 
 use std::f64::consts::PI;
 
@@ -47,6 +59,29 @@ impl TangentSpec {
     }
 }
 
+/// The tension's rise per square metre of tangent displacement, 1/m^2: the
+/// tension becomes T (1 + s W^2) when the tangent holds the end at W. For a wire
+/// of Young's modulus `modulus_pa` and cross-section `area_m2` at `tension_n`,
+/// speaking over `speaking_length_m` and damped over `damped_length_m`.
+pub fn stretch_per_m2(
+    modulus_pa: f64,
+    area_m2: f64,
+    tension_n: f64,
+    speaking_length_m: f64,
+    damped_length_m: f64,
+) -> f64 {
+    let (l1, l2) = (damped_length_m, speaking_length_m);
+    modulus_pa * area_m2 * (0.5 / l1 + 0.5 / l2) / ((l1 + l2) * tension_n)
+}
+
+/// The factor a press of `displacement_m` raises the pitch by, sqrt(1 + s W^2),
+/// for a string whose tension rises by `stretch_per_m2` (bending stiffness, which
+/// does not change with the tension, is left out: it moves the first partial by
+/// well under 0.01 of this).
+pub fn stretched_pitch_ratio(stretch_per_m2: f64, displacement_m: f64) -> f64 {
+    (1.0 + stretch_per_m2 * displacement_m * displacement_m).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -76,5 +111,43 @@ mod tests {
                 .sum();
             assert!((-2.0 * integral - TangentSpec::modal_gain(n)).abs() < 1e-9);
         }
+    }
+
+    fn cents(ratio: f64) -> f64 {
+        1200.0 * ratio.log2()
+    }
+
+    /// Brass (E = 100 GPa, rho = 8500 kg/m^3) of `diameter_m` sounding `f_hz` over
+    /// `speaking_m`, damped over `damped_m`: the rise in cents at `w_m`.
+    fn brass_rise_cents(diameter_m: f64, f_hz: f64, speaking_m: f64, damped_m: f64, w_m: f64) -> f64 {
+        let area = PI * diameter_m * diameter_m / 4.0;
+        let tension = 4.0 * speaking_m * speaking_m * 8500.0 * area * f_hz * f_hz;
+        cents(stretched_pitch_ratio(stretch_per_m2(1.0e11, area, tension, speaking_m, damped_m), w_m))
+    }
+
+    #[test]
+    fn stretching_reproduces_the_worked_examples() {
+        // Physics reference 1.6: 0.35 mm brass, L2 = 0.40 m, L1 = 0.10 m, 330 Hz
+        // (working stress 590 MPa): 1.8 cents at 1 mm, 7.3 cents at 2 mm.
+        let rise = |w| brass_rise_cents(0.35e-3, 330.0, 0.40, 0.10, w);
+        assert!((rise(1e-3) - 1.8).abs() < 0.05, "{}", rise(1e-3));
+        assert!((rise(2e-3) - 7.3).abs() < 0.05, "{}", rise(2e-3));
+        // 0.30 mm, L2 = 0.30 m, 440 Hz (the same L1): 2.4 and 9.7 cents.
+        let rise = |w| brass_rise_cents(0.30e-3, 440.0, 0.30, 0.10, w);
+        assert!((rise(1e-3) - 2.4).abs() < 0.05, "{}", rise(1e-3));
+        assert!((rise(2e-3) - 9.7).abs() < 0.05, "{}", rise(2e-3));
+    }
+
+    #[test]
+    fn the_rise_is_quadratic_in_the_displacement_and_set_by_the_stress() {
+        let s = stretch_per_m2(1.0e11, 1.0e-7, 50.0, 0.5, 0.3);
+        for w in [0.25e-3, 0.5e-3, 1e-3] {
+            let (one, two) = (stretched_pitch_ratio(s, w) - 1.0, stretched_pitch_ratio(s, 2.0 * w) - 1.0);
+            // sqrt(1 + x) - 1 = x / 2 - x^2 / 8 ...: the ratio is 4 to within the square term.
+            assert!((two / one - 4.0).abs() < 4.0 * 2.0 * s * w * w, "{w}: {}", two / one);
+        }
+        // Only the stress T / A matters: twice the area at twice the tension is the same string.
+        assert!((stretch_per_m2(1.0e11, 2.0e-7, 100.0, 0.5, 0.3) / s - 1.0).abs() < 1e-12);
+        assert_eq!(stretched_pitch_ratio(s, 0.0), 1.0);
     }
 }

@@ -116,7 +116,7 @@ pub(super) fn damper(decay_60_db_s: f64, rate_per_hz_s: f64, f1_hz: f64, travel_
 }
 
 /// Where an instrument's strings lose their energy (physics reference 1.4 and 1.7).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Losses {
     /// eta_E of the wire.
     pub internal_loss_factor: f64,
@@ -129,7 +129,7 @@ pub(super) struct Losses {
 /// The tangent, key and finger seen by one string: a mass on a dashpot (Euphonics
 /// 12.2.4). Waves it lets through are lost in the listing felt, which mostly damps
 /// the low partials (the mass reflects the high ones).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct TangentLeak {
     pub mass_kg: f64,
     pub resistance_ns_m: f64,

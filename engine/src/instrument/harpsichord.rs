@@ -12,7 +12,12 @@
 //! The plucking point is measured from the nut. The pluck's modal amplitudes go as
 //! |sin(n pi p)|, the same for p and 1 - p, so the position handed on is the
 //! distance to the nearer end (the table's top notes are plucked just past the
-//! middle).
+//! middle). Woodhouse plucks at 1/7.8 of the length, "a typical harpsichord
+//! position"; the Naples instrument's own points are kept instead, from 1/10.5 of
+//! the length at C2 through 1/4.6 at c' to nearly the middle at the top (a fixed
+//! 1/7.8 would pluck d''' 14 mm from the nut, where the table has 63.5 mm).
+//! The comparison with the clavichord (`engine/tests/seed_clavichord.rs`) plucks at
+//! exactly 1/7.8.
 //!
 //! Gauges are the old Nuernberg sizes (#10 0.20 mm to #1 0.52 mm): the one nearest
 //! to a diameter falling log-linearly from 0.52 mm at C2 to 0.20 mm at D6, which
@@ -34,9 +39,12 @@ use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 pub(super) const KEYS: RangeInclusive<u8> = 36..=86;
 
-/// Pluck height in mm (not a speed): a plectrum lets go of the string at much the
-/// same height however fast the key goes down.
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.8, max: 1.2 };
+/// Pluck height in mm (not a speed): 2 mm at the strongest touch, the plectrum
+/// displacement of Woodhouse's comparison with the clavichord (the same as the
+/// tangent's), and 1.3 mm at the softest. A plectrum lets go of the string at
+/// much the same height however fast the key goes down, so the touch spans only
+/// 3.7 dB.
+pub(super) const TOUCH: TouchRange = TouchRange { min: 1.3, max: 2.0 };
 
 /// String length, m, and plucking point from the nut, m (the Naples instrument).
 const LENGTH_M: Table = Table(&[
@@ -75,7 +83,8 @@ const TARGET_DIAMETER_M: Table = Table(&[(36, 0.52e-3), (86, 0.20e-3)]);
 /// lively soundboard, Re Y = 5e-3 s/kg: the D2 string's fundamental gets Q near
 /// 620 (three quarters of its loss going into the bridge, the rest to air), a
 /// 60 dB decay of about 18 s, and c''' about 4 s.
-const LOSSES: Losses = Losses { internal_loss_factor: 5.0e-4, bridge_admittance_s_kg: 5.0e-3, tangent: None };
+pub(super) const LOSSES: Losses =
+    Losses { internal_loss_factor: 5.0e-4, bridge_admittance_s_kg: 5.0e-3, tangent: None };
 
 /// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -24 dBFS.
 ///

@@ -136,7 +136,8 @@ pub struct Voicing {
     pub damping: f64,
     /// Spread of the unison detuning.
     pub unison_detune: f64,
-    /// Clavichord: how far the tangent goes into the string (1 = as built, 2 mm on a 0.8 m string).
+    /// Clavichord: how far the tangent goes into the string (1 = as built: 2 mm on
+    /// the 0.8 m D2 string, down to 1 mm on the short treble strings; held to 0.25..=2).
     pub tangent_depth: f64,
     /// Clavichord: fretted, several keys sharing one pair of strings (the higher tangent wins).
     pub fretted: bool,
@@ -241,6 +242,14 @@ pub fn design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_frequen
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };
     Some(key)
+}
+
+/// How many cents sharp the clavichord's `midi_key` sounds while its tangent holds
+/// the strings `displacement_m` in: pressing stretches both the speaking and the
+/// damped length (the tension factor of [`ExciterDesign::Tangent`]'s
+/// `stretch_per_m2`). About 5 cents at 2 mm on D2, quadratic in the depth.
+pub fn clavichord_pitch_rise_cents(midi_key: u8, displacement_m: f64) -> f64 {
+    clavichord::pitch_rise_cents(midi_key, displacement_m)
 }
 
 /// Equal-tempered frequency of a MIDI key, A4 = 440 Hz.

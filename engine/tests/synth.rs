@@ -1,6 +1,6 @@
 //! The real-time synth: keys, pedals, stealing, block-size independence, rebuilds.
 
-use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::instrument::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
 use struck_engine::synth::{
     Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop, default_settings,
 };
@@ -391,4 +391,93 @@ fn odd_sample_rates_build_and_play() {
     }
     assert!(Instrument::build(&default_settings(InstrumentKind::Piano, 999.0)).is_err());
     assert!(Instrument::build(&default_settings(InstrumentKind::Piano, 800_000.0)).is_err());
+}
+
+/// The frequency of the strongest component within half a cent of `guess_hz`,
+/// refined to a hundredth of a cent (Hann window, DTFT scan).
+fn fine_peak(x: &[f32], guess_hz: f64) -> f64 {
+    let coarse = peak_near(x, guess_hz);
+    let n = x.len() as f64;
+    let window: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(k, v)| (0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / n).cos()) * *v as f64)
+        .collect();
+    let power = |f: f64| {
+        let (mut re, mut im) = (0.0, 0.0);
+        let step = 2.0 * std::f64::consts::PI * f / FS;
+        for (k, w) in window.iter().enumerate() {
+            let ph = step * k as f64;
+            re += w * ph.cos();
+            im += w * ph.sin();
+        }
+        re * re + im * im
+    };
+    (-50..=50)
+        .map(|i| coarse * 2f64.powf(i as f64 * 0.01 / 1200.0))
+        .max_by(|a, b| power(*a).total_cmp(&power(*b)))
+        .unwrap()
+}
+
+fn clavichord(voicing: Voicing) -> Synth {
+    let settings = InstrumentSettings { voicing, ..default_settings(InstrumentKind::Clavichord, FS) };
+    Synth::new(Box::new(Instrument::build(&settings).unwrap())).0
+}
+
+#[test]
+fn a_clavichord_press_raises_the_pitch_as_the_stretch_says() {
+    // D2, the seed's string; one string's pitch (no unison spread) measured over 2 s.
+    let key = 38;
+    let f_key = struck_engine::instrument::key_frequency_hz(key);
+    let built_m = 2.0e-3;
+    // At rest the strings sit flat by the built press's rise (tuned with the key down).
+    let rest_hz = f_key / 2f64.powf(clavichord_pitch_rise_cents(key, built_m) / 1200.0);
+    for depth in [1.0, 0.5, 1.5] {
+        let voicing = Voicing { unison_detune: 0.0, tangent_depth: depth, ..Voicing::default() };
+        let out = render(&mut clavichord(voicing), 2.6, &[(0.0, Event::NoteOn { key, velocity: 0.8 })], 512);
+        let f = fine_peak(window(&out, 0.5, 2.5), f_key);
+        let rise = cents(f, rest_hz);
+        let expected = clavichord_pitch_rise_cents(key, built_m * depth);
+        eprintln!("D2 pressed {:.2} mm: {rise:.3} cents (the stretch: {expected:.3})", built_m * depth * 1e3);
+        assert!((rise - expected).abs() < 0.2, "depth {depth}: {rise:.2} cents, the stretch says {expected:.2}");
+    }
+}
+
+#[test]
+fn bebung_bends_a_held_clavichord_note_smoothly() {
+    let key = 38;
+    let f_key = struck_engine::instrument::key_frequency_hz(key);
+    let voicing = Voicing { unison_detune: 0.0, ..Voicing::default() };
+    let events = [(0.0, Event::NoteOn { key, velocity: 0.8 }), (1.0, Event::Pressure { key, pressure: 1.0 })];
+    let mut synth = clavichord(voicing);
+    synth.set_controls(Controls { bebung: 0.25, ..Controls::default() });
+    let out = render(&mut synth, 3.0, &events, 256);
+    let before = fine_peak(window(&out, 0.2, 1.0), f_key);
+    let after = fine_peak(window(&out, 1.2, 3.0), f_key);
+    // Full pressure presses 25 % deeper: from 2 mm to 2.5 mm.
+    let expected = clavichord_pitch_rise_cents(key, 2.5e-3) - clavichord_pitch_rise_cents(key, 2.0e-3);
+    assert!((cents(after, before) - expected).abs() < 0.3, "{:.2} cents, expected {expected:.2}", cents(after, before));
+    // No click where the pressure comes.
+    let i = (1.0 * FS) as usize;
+    let steps = |a: usize, b: usize| out[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
+    assert!(steps(i, i + 2400) <= 1.2 * steps(i - 4800, i), "a click under the finger");
+}
+
+#[test]
+fn on_a_fretted_clavichord_the_higher_tangent_wins() {
+    let mut synth = clavichord(Voicing { fretted: true, unison_detune: 0.0, ..Voicing::default() });
+    // C4 and C#4 share a pair of strings. C4 alone; C#4 pressed over it; C#4 up again.
+    let events = [
+        (0.0, Event::NoteOn { key: 60, velocity: 0.8 }),
+        (1.0, Event::NoteOn { key: 61, velocity: 0.8 }),
+        (2.0, Event::NoteOff { key: 61 }),
+    ];
+    let out = render(&mut synth, 3.0, &events, 256);
+    let f = |from, to, guess| fine_peak(window(&out, from, to), guess);
+    let (c4, cs4) = (261.6256, 277.1826);
+    assert!(cents(f(0.2, 1.0, c4), c4).abs() < 3.0);
+    assert!(cents(f(1.2, 2.0, cs4), cs4).abs() < 3.0, "the upper tangent did not take the string");
+    // Back to the lower tangent, still down: the string sounds C4 again.
+    assert!(cents(f(2.2, 3.0, c4), c4).abs() < 3.0);
+    assert_eq!(synth.active_keys(), 1, "one pair of strings");
 }

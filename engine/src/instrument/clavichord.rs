@@ -42,7 +42,7 @@ use super::common::{
     BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Level, Losses, Table, TangentLeak, damper, detuned_hz, flexible_tension_n,
     pan, unison_cents, wire_mass_per_length_kg_m, with_losses,
 };
-use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{ExciterDesign, KeyDesign, SharedKey, TouchRange, Voicing, key_frequency_hz};
 use crate::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 use crate::tangent;
@@ -149,15 +149,66 @@ fn built_displacement_m(length_m: f64) -> f64 {
     (TANGENT_DISPLACEMENT_M * (length_m / 0.8).sqrt()).clamp(MIN_TANGENT_DISPLACEMENT_M, TANGENT_DISPLACEMENT_M)
 }
 
-pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
+/// The last key of the unfretted bass: C2-F#2 have strings of their own on the
+/// fretted instrument (as on the Way & Ducornet Hubert copy, Fletcher & Beebe).
+const LAST_FREE_BASS_KEY: u8 = 42;
+
+/// On the fretted instrument ("double-fretted", the common 18th-century
+/// arrangement): whether `midi_key` shares its strings with the key a semitone
+/// above (and plays them from the longer end). D and A keep strings of their own;
+/// the other naturals pair with the semitone above: C-C#, D#-E, F-F#, G-G#, A#-B.
+fn fretted_below_partner(midi_key: u8) -> bool {
+    midi_key > LAST_FREE_BASS_KEY && matches!(midi_key % 12, 0 | 3 | 5 | 7 | 10) && midi_key < *KEYS.end()
+}
+
+/// The design of `midi_key`; None when, fretted, it plays the strings of the key
+/// below it (listed there as a [`SharedKey`]).
+pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> Option<KeyDesign> {
+    if !voicing.fretted {
+        return Some(course(voicing, midi_key, max_frequency_hz));
+    }
+    if midi_key > *KEYS.start() && fretted_below_partner(midi_key - 1) {
+        return None;
+    }
+    let mut design = course(voicing, midi_key, max_frequency_hz);
+    if fretted_below_partner(midi_key) {
+        // The upper key's tangent meets the same strings nearer the bridge: a
+        // semitone higher, pressed and stretched as that key's own would be.
+        let upper = midi_key + 1;
+        let own = course(voicing, upper, max_frequency_hz);
+        let low = design.exciter;
+        let (
+            ExciterDesign::Tangent { stretch_per_m2: s_low, displacement_m: d_low },
+            ExciterDesign::Tangent { stretch_per_m2: s_up, displacement_m: d_up },
+        ) = (low, own.exciter)
+        else {
+            unreachable!("a clavichord key has a tangent")
+        };
+        // The strings are tuned for the lower tangent pressed; the upper one sounds
+        // its semitone over the strings at rest, raised by its own press.
+        let interval = key_frequency_hz(upper) / key_frequency_hz(midi_key);
+        design.shared.push(SharedKey {
+            midi_key: upper,
+            struck: design.struck.clone(),
+            exciter: ExciterDesign::Tangent { displacement_m: d_up, stretch_per_m2: s_up },
+            pitch_ratio: interval / tangent::stretched_pitch_ratio(s_low, d_low),
+        });
+    }
+    Some(design)
+}
+
+/// One key with its own pair of strings. The strings are tuned, as a clavichord
+/// is, with the key down: at rest they sit flat by the rise of the as-built press.
+fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
     let length_m = LENGTH_M.log_extended(midi_key);
     let diameter_m = gauge_m(midi_key);
+    let pressed = tangent::stretched_pitch_ratio(stretch_per_m2(midi_key), built_displacement_m(length_m));
     let specs = unison_cents(midi_key, STRINGS, UNISON_SPREAD_CENTS, voicing)
         .into_iter()
         .map(|cents| {
             let spec = StringSpec {
                 length_m,
-                tuning: Tuning::FirstPartialHz(detuned_hz(midi_key, cents)),
+                tuning: Tuning::FirstPartialHz(detuned_hz(midi_key, cents) / pressed),
                 mass: Mass::SolidWire { diameter_m, density_kg_m3: BRASS_DENSITY_KG_M3 },
                 stiffness: Stiffness::YoungsModulus { modulus_pa: BRASS_MODULUS_PA, bending_diameter_m: diameter_m },
                 damping: Damping::UniformQ(1.0), // replaced by with_losses
@@ -201,6 +252,31 @@ mod tests {
     use super::super::harpsichord;
     use super::*;
 
+    #[test]
+    fn fretted_keys_share_strings_and_d_and_a_keep_their_own() {
+        let fretted = Voicing { fretted: true, ..Voicing::default() };
+        let homes: Vec<u8> = KEYS.filter(|&k| design(&fretted, k, 20_000.0).is_some()).collect();
+        // The bass C2-F#2 and every D and A have their own strings.
+        for key in (36..=42).chain(KEYS.filter(|k| matches!(k % 12, 2 | 9))) {
+            assert!(homes.contains(&key), "key {key} lost its strings");
+        }
+        // C-C#, D#-E, F-F#, G-G#, A#-B share above the bass.
+        for (low, high) in [(43, 44), (46, 47), (48, 49), (51, 52), (53, 54), (84, 85), (87, 88)] {
+            let d = design(&fretted, low, 20_000.0).unwrap();
+            assert!(design(&fretted, high, 20_000.0).is_none(), "{high} should be fretted to {low}");
+            assert_eq!(d.shared.len(), 1);
+            let upper = &d.shared[0];
+            assert_eq!((upper.midi_key, upper.struck.clone()), (high, d.struck.clone()));
+            // A semitone over the strings, less the lower press's stretch (a few cents at most).
+            let cents = 1200.0 * upper.pitch_ratio.log2();
+            assert!((cents - 100.0).abs() < 6.0 && cents < 100.0, "{low}: {cents} cents");
+        }
+        // 53 keys on 34 courses: 19 pairs share.
+        assert_eq!(homes.len(), 34, "{homes:?}");
+        // Unfretted, every key is its own course.
+        assert!(KEYS.clone().all(|k| design(&Voicing::default(), k, 20_000.0).is_some_and(|d| d.shared.is_empty())));
+    }
+
     fn tangent(d: &KeyDesign) -> (f64, f64) {
         let ExciterDesign::Tangent { displacement_m, stretch_per_m2 } = d.exciter else { panic!("not a tangent") };
         (displacement_m, stretch_per_m2)
@@ -208,7 +284,7 @@ mod tests {
 
     #[test]
     fn d2_is_the_k2_string_with_a_low_q_fundamental() {
-        let d = design(&Voicing::default(), 38, 20_000.0);
+        let d = course(&Voicing::default(), 38, 20_000.0);
         assert_eq!(d.strings.len(), 2);
         let s = d.strings[0].build().unwrap();
         assert!((s.length_m - 0.8).abs() < 0.01);
@@ -226,7 +302,7 @@ mod tests {
         // The harpsichord's damping is the clavichord's without the tangent.
         assert_eq!(Losses { tangent: None, ..LOSSES }, harpsichord::LOSSES);
         for key in [36, 38, 43] {
-            let spec = design(&Voicing::default(), key, 20_000.0).strings[0].clone();
+            let spec = course(&Voicing::default(), key, 20_000.0).strings[0].clone();
             let leaky = with_losses(spec.clone(), &LOSSES, 1.0).build().unwrap();
             let plain = with_losses(spec, &harpsichord::LOSSES, 1.0).build().unwrap();
             for (a, b) in leaky.modes.iter().zip(&plain.modes) {
@@ -246,7 +322,7 @@ mod tests {
     #[test]
     fn brass_is_not_overstressed_and_the_felt_damps_within_tens_of_ms() {
         for key in KEYS {
-            let d = design(&Voicing::default(), key, 20_000.0);
+            let d = course(&Voicing::default(), key, 20_000.0);
             let s = d.strings[0].build().unwrap();
             let stress_pa = s.tension_n / (std::f64::consts::PI * gauge_m(key).powi(2) / 4.0);
             assert!((50e6..720e6).contains(&stress_pa), "{key}: {stress_pa}");
@@ -269,7 +345,7 @@ mod tests {
             let c = pitch_rise_cents(key, 2.0e-3);
             assert!((0.5..7.0).contains(&c), "key {key}: {c:.2} cents at 2 mm");
             // The design carries the same stretch.
-            let (_, s) = tangent(&design(&Voicing::default(), key, 20_000.0));
+            let (_, s) = tangent(&course(&Voicing::default(), key, 20_000.0));
             let ratio = tangent::stretched_pitch_ratio(s, 2.0e-3);
             assert!((1200.0 * ratio.log2() - c).abs() < 1e-12);
         }
@@ -277,13 +353,13 @@ mod tests {
 
     #[test]
     fn tangent_depth_scales_the_displacement_not_the_gain() {
-        let plain = design(&Voicing::default(), 60, 20_000.0);
-        let deeper = design(&Voicing { tangent_depth: 1.5, ..Voicing::default() }, 60, 20_000.0);
+        let plain = course(&Voicing::default(), 60, 20_000.0);
+        let deeper = course(&Voicing { tangent_depth: 1.5, ..Voicing::default() }, 60, 20_000.0);
         assert!((tangent(&deeper).0 / tangent(&plain).0 - 1.5).abs() < 1e-12);
         assert_eq!(tangent(&deeper).1, tangent(&plain).1);
         assert_eq!(deeper.gain_per_n, plain.gain_per_n);
         // Held to a range: no tangent that never reaches the string.
-        let none = design(&Voicing { tangent_depth: 0.0, ..Voicing::default() }, 60, 20_000.0);
+        let none = course(&Voicing { tangent_depth: 0.0, ..Voicing::default() }, 60, 20_000.0);
         assert!((tangent(&none).0 / tangent(&plain).0 - TANGENT_DEPTH_RANGE.0).abs() < 1e-12);
     }
 

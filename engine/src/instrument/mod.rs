@@ -238,7 +238,7 @@ pub fn design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_frequen
         InstrumentKind::Santoor => santoor::design(voicing, midi_key, max_frequency_hz),
         InstrumentKind::Dulcimer => dulcimer::design(voicing, midi_key, max_frequency_hz)?,
         InstrumentKind::Cimbalom => cimbalom::design(voicing, midi_key, max_frequency_hz),
-        InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz),
+        InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz)?,
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };
     Some(key)

@@ -14,7 +14,7 @@ use crate::instrument::{DamperDesign, ExciterDesign, KeyDesign};
 use crate::pluck::PluckSpec;
 use crate::string::StringError;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
-use crate::tangent::TangentSpec;
+use crate::tangent::{self, TangentSpec};
 
 /// Time constant of a tangent falling back from the strings when the key comes up, s.
 const TANGENT_LIFT_S: f64 = 0.002;
@@ -283,7 +283,7 @@ impl Key {
         let stretch = match note.exciter {
             ExciterDesign::Tangent { stretch_per_m2, .. } => {
                 let w = self.strings[note.struck.start].tangent_position_m() * (1.0 + self.bebung * self.pressure_now);
-                (1.0 + stretch_per_m2 * w * w).max(0.0).sqrt()
+                tangent::stretched_pitch_ratio(stretch_per_m2, w)
             }
             _ => 1.0,
         };

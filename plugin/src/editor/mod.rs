@@ -1,5 +1,5 @@
 //! The panel: every parameter, grouped as a player thinks of them (Instrument,
-//! Touch, Hammer, Strings, Output), beside a live view of the physics.
+//! Touch, Hammer, Strings, Tangent, Output), beside a live view of the physics.
 //!
 //! The panel owns the reading end of the engine's [`Scope`] (behind a mutex
 //! that only the panel and `activate` take; the audio thread writes into the
@@ -164,6 +164,20 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Strings", |ui| {
         slider(ui, "Damping", &params.strings.damping, setter);
         slider(ui, "Unison detune", &params.strings.detune, setter);
+    });
+    group(ui, "Tangent (clavichord)", |ui| {
+        slider(ui, "Depth", &params.tangent.depth, setter);
+        slider(ui, "Bebung", &params.tangent.bebung, setter);
+        ui.horizontal(|ui| {
+            ui.add_sized([118.0, 18.0], egui::Label::new("Fretted"));
+            let mut fretted = params.tangent.fretted.value();
+            if ui.checkbox(&mut fretted, "keys share strings").changed() {
+                setter.begin_set_parameter(&params.tangent.fretted);
+                setter.set_parameter(&params.tangent.fretted, fretted);
+                setter.end_set_parameter(&params.tangent.fretted);
+            }
+        });
+        ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
     });
     group(ui, "Output", |ui| {
         slider(ui, "Polyphony", &params.output.polyphony, setter);

@@ -20,13 +20,16 @@
 //! 5. The output of a string is its bridge force, T y'(0) - EI y'''(0).
 //!
 //! 6. [`instrument`]: what every key of a piano, santoor, clavichord or
-//!    harpsichord is made of ([`instrument::KeyDesign`]), scaled by the player's voicing.
+//!    harpsichord is made of ([`instrument::KeyDesign`]), scaled by the player's voicing,
+//!    and [`tuning`]: the frequency each key is tuned to (temperament, inharmonic
+//!    stretch, Scala scales).
 //! 7. [`synth`]: the real-time instrument. Keys own their strings, exciter and
 //!    damper; [`synth::Synth::process`] plays events sample-accurately without
 //!    allocating, and a [`synth::Workshop`] thread rebuilds the tables when the
 //!    settings change and hands them over through lock-free queues.
 //!
-//! [`lab`] runs one strike case end to end (the `struck strike` command) and
+//! [`preset`] keeps an instrument, voicing, controls and tuning under a name (the
+//! factory presets and the user's). [`lab`] runs one strike case end to end (the `struck strike` command) and
 //! [`analysis`] measures the results. [`perf`] measures the modal bank's speed.
 //!
 //! Units are SI throughout and carried in names (`_hz`, `_m`, `_n`, `_s`).
@@ -43,6 +46,7 @@ pub mod lab;
 pub mod modal_bank;
 pub mod perf;
 pub mod pluck;
+pub mod preset;
 pub mod residual;
 pub mod rng;
 pub mod string;

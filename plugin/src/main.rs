@@ -64,8 +64,10 @@ enum Command {
                             sostenuto (CC66), una corda (CC67), all sound off (CC120), reset \
                             controllers (CC121), all notes off (CC123) and pitch bend are played. \
                             The samples are the same on every run and for every --block-size. \
-                            A bad argument, preset or MIDI file is refused with exit status 2 and \
-                            one line naming it; no WAV is written then, and an existing one is kept.")]
+                            Tuning: --a4, --temperament, --stretch, or a Scala scale (--scl, --kbm). \
+                            A bad argument, preset, tuning file or MIDI file is refused with exit \
+                            status 2 and one line naming it; no WAV is written then, and an \
+                            existing one is kept.")]
     Render(render_cmd::RenderArgs),
 }
 

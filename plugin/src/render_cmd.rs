@@ -8,18 +8,10 @@
 //! MIDI event plus `--tail-s`: a predictable length rather than "until silent".
 //! The same file gives the same samples on every run and for every block size.
 //!
-//! A preset is a JSON file with three optional parts (the engine's own structs,
-//! each field optional; unknown fields are refused):
-//!
-//! ```json
-//! {
-//!   "instrument": "santoor",
-//!   "voicing": { "hammer_mass": 1.2, "hammer_stiffness": 1.0, "hammer_exponent": 1.0,
-//!                "strike_position": 1.0, "damping": 0.8, "unison_detune": 1.0 },
-//!   "controls": { "touch_min": 0.0, "touch_max": 1.0, "touch_shape": 1.0, "polyphony": 64,
-//!                 "output_gain": 1.0, "bend_range_semitones": 2.0 }
-//! }
-//! ```
+//! A preset is a JSON file read by [`struck_engine::preset`] (instrument, voicing,
+//! controls, tuning; every part optional, unknown fields refused). The tuning
+//! flags (`--a4`, `--temperament`, `--stretch`, `--scl`, `--kbm`) override the
+//! preset's tuning field by field.
 
 use std::fs;
 use std::io::{self, IsTerminal};
@@ -28,11 +20,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Deserialize;
-use serde::de::DeserializeOwned;
-use serde_json::{Map, Value};
-use struck_engine::instrument::{InstrumentKind, Voicing};
-use struck_engine::synth::{Controls, Event, Instrument, InstrumentSettings, Synth, TimedEvent};
+use struck_engine::instrument::InstrumentKind;
+use struck_engine::preset::Preset;
+use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
+use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
 use crate::Failure;
 use crate::midi_file::{self, ReadOptions};
@@ -62,13 +53,35 @@ pub struct RenderArgs {
     /// once the render is complete.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// piano, santoor, clavichord or harpsichord [default: the preset's, else piano]
+    /// piano|fortepiano|santoor|dulcimer|cimbalom|clavichord|harpsichord [default: the
+    /// preset's, else piano]
     #[arg(long, value_name = "NAME")]
     pub instrument: Option<String>,
-    /// A JSON preset: {"instrument": ..., "voicing": {...}, "controls": {...}}, every
-    /// part and field optional (the README lists them). --instrument overrides its instrument.
+    /// A JSON preset: {"name": ..., "instrument": ..., "voicing": {...}, "controls": {...},
+    /// "tuning": {...}}, every part and field optional (the README lists them).
+    /// --instrument and the tuning flags override its fields.
     #[arg(long, value_name = "FILE")]
     pub preset: Option<PathBuf>,
+    /// Frequency of A4, Hz (380 to 480) [default: the preset's, else 440]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub a4: Option<f64>,
+    /// equal|meantone|werckmeister3|vallotti (quarter-comma meantone, Werckmeister III and
+    /// Vallotti are laid from C, with A4 kept at --a4) [default: the preset's, else equal]
+    #[arg(long, value_name = "NAME")]
+    pub temperament: Option<String>,
+    /// Share of the stretch the strings' own inharmonicity asks for, 0 (none) to 1
+    /// (every octave beatless on the lower key's second partial) [default: the preset's, else 0]
+    #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
+    pub stretch: Option<f64>,
+    /// Tune to a Scala scale (.scl), degree 0 on C4 at its equal-tempered pitch
+    /// from --a4 unless --kbm says otherwise; replaces the preset's scale.
+    #[arg(long, value_name = "FILE.scl")]
+    pub scl: Option<PathBuf>,
+    /// A Scala keyboard mapping (.kbm) for the scale: which key plays which degree,
+    /// and the reference key and frequency. Keys it leaves unmapped stay in equal
+    /// temperament.
+    #[arg(long, value_name = "FILE.kbm")]
+    pub kbm: Option<PathBuf>,
     /// Sample rate, Hz (22050 to 192000).
     #[arg(long, value_name = "HZ", default_value_t = 48_000.0, allow_negative_numbers = true)]
     pub sample_rate: f64,
@@ -87,26 +100,15 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
-/// A render preset. Every part is optional: what is missing is the instrument as built.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Preset {
-    /// Piano when neither the preset nor --instrument names one.
-    pub instrument: Option<InstrumentKind>,
-    /// Scale factors on the instrument's own values (1 = as built).
-    pub voicing: Voicing,
-    /// Touch, polyphony, output gain, bend range.
-    pub controls: Controls,
-}
-
 pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     let sample_rate_hz = check_sample_rate(args.sample_rate)?;
     let tail_s = check_tail(args.tail_s)?;
     let block_size = check_block_size(args.block_size)?;
     let preset = match &args.preset {
-        Some(path) => load_preset(path).map_err(|e| Failure::bad_input(format!("{}: {e}", path.display())))?,
+        Some(path) => Preset::load(path).map_err(|e| Failure::bad_input(e.to_string()))?,
         None => Preset::default(),
     };
+    let tuning = tuning(args, &preset.tuning)?;
     let kind = match &args.instrument {
         Some(name) => name.parse::<InstrumentKind>().map_err(|e| Failure::bad_input(format!("--instrument: {e}")))?,
         None => preset.instrument.unwrap_or_default(),
@@ -141,11 +143,14 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         )));
     }
 
-    let settings =
-        InstrumentSettings { kind, voicing: preset.voicing, sample_rate_hz: fs_hz, tuning: Default::default() };
-    let instrument = Instrument::build(&settings).map_err(|e| match &args.preset {
-        Some(path) => Failure::bad_input(format!("{}: voicing: {e}", path.display())),
-        None => Failure::failed(format!("cannot build the {kind}: {e}")),
+    let tuned = tuning != TuningSettings::default();
+    let settings = Preset { instrument: Some(kind), tuning, ..preset.clone() }.settings(fs_hz);
+    let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
+        (Some(path), _) => {
+            Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
+        }
+        (None, true) => Failure::bad_input(format!("the {kind} cannot be built in this tuning: {e}")),
+        (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
     })?;
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
     synth.set_controls(preset.controls);
@@ -223,8 +228,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         } else {
             "silent".to_string()
         };
+        let tuning_note = if tuned { format!(" ({})", settings.tuning.describe()) } else { String::new() };
         println!(
-            "{shown} -> {}: {kind}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
+            "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
              ({:.1}x real time), {peak_note}",
             args.out.display(),
             count(notes, "note"),
@@ -312,80 +318,54 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Read and check a preset; the error names the field and the reason.
-pub fn load_preset(path: &Path) -> Result<Preset, String> {
-    let text = fs::read_to_string(path).map_err(|e| format!("cannot read: {e}"))?;
-    let value: Value = serde_json::from_str(&text).map_err(|e| format!("not valid JSON: {e}"))?;
-    let Value::Object(top) = &value else {
-        return Err("a preset must be a JSON object".to_string());
-    };
-    if let Some(instrument) = top.get("instrument") {
-        serde_json::from_value::<Option<InstrumentKind>>(instrument.clone()).map_err(|e| format!("instrument: {e}"))?;
-    }
-    if let Some(voicing) = top.get("voicing") {
-        check_section::<Voicing>("voicing", voicing, &serde_json::to_value(Voicing::default()).expect("serialises"))?;
-    }
-    if let Some(controls) = top.get("controls") {
-        check_section::<Controls>(
-            "controls",
-            controls,
-            &serde_json::to_value(Controls::default()).expect("serialises"),
-        )?;
-    }
-    // Unknown top-level fields are named by serde here.
-    let preset: Preset = serde_json::from_value(value).map_err(|e| e.to_string())?;
-    check_preset(&preset)?;
-    Ok(preset)
-}
-
-/// The engine's structs fill missing fields but accept unknown ones: a misspelt
-/// field would silently do nothing, so each key is checked against the defaults'
-/// keys, and each value on its own so that a wrong type names its field.
-fn check_section<T: DeserializeOwned>(name: &str, section: &Value, defaults: &Value) -> Result<(), String> {
-    let (Value::Object(fields), Value::Object(known)) = (section, defaults) else {
-        return Err(format!("{name}: must be a JSON object"));
-    };
-    for (key, value) in fields {
-        if !known.contains_key(key) {
-            let expected: Vec<&str> = known.keys().map(String::as_str).collect();
-            return Err(format!("{name}.{key}: unknown field (expected one of {})", expected.join(", ")));
+/// The preset's tuning with the tuning flags laid over it, checked.
+fn tuning(args: &RenderArgs, preset: &TuningSettings) -> Result<TuningSettings, Failure> {
+    let mut tuning = preset.clone();
+    if let Some(hz) = args.a4 {
+        if !A4_RANGE_HZ.contains(&hz) {
+            return Err(Failure::bad_input(format!(
+                "--a4: must be from {} to {} Hz (got {hz})",
+                A4_RANGE_HZ.start(),
+                A4_RANGE_HZ.end()
+            )));
         }
-        let one = Value::Object(Map::from_iter([(key.clone(), value.clone())]));
-        serde_json::from_value::<T>(one).map_err(|e| format!("{name}.{key}: {e}"))?;
+        tuning.a4_hz = hz;
     }
-    Ok(())
-}
-
-fn check_preset(preset: &Preset) -> Result<(), String> {
-    let v = &preset.voicing;
-    for (field, value) in [
-        ("hammer_mass", v.hammer_mass),
-        ("hammer_stiffness", v.hammer_stiffness),
-        ("hammer_exponent", v.hammer_exponent),
-        ("strike_position", v.strike_position),
-        ("damping", v.damping),
-    ] {
-        within(&format!("voicing.{field}"), value, 0.01, 100.0, "")?;
+    if let Some(name) = &args.temperament {
+        let temperament = name.parse::<Temperament>().map_err(|e| Failure::bad_input(format!("--temperament: {e}")))?;
+        if args.scl.is_some() && temperament != Temperament::Scala {
+            return Err(Failure::bad_input(format!(
+                "--temperament {name} and --scl: a scale is its own temperament; give one or the other"
+            )));
+        }
+        tuning.temperament = temperament;
     }
-    within("voicing.unison_detune", v.unison_detune, 0.0, 100.0, "")?;
-    let c = &preset.controls;
-    within("controls.touch_min", c.touch_min, 0.0, 1.0, "")?;
-    within("controls.touch_max", c.touch_max, 0.0, 1.0, "")?;
-    within("controls.touch_shape", c.touch_shape, 0.1, 10.0, "")?;
-    within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
-    within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
-    if !(1..=128).contains(&c.polyphony) {
-        return Err(format!("controls.polyphony: must be from 1 to 128 keys (got {})", c.polyphony));
+    if let Some(stretch) = args.stretch {
+        if !(0.0..=1.0).contains(&stretch) {
+            return Err(Failure::bad_input(format!("--stretch: must be from 0 to 1 (got {stretch})")));
+        }
+        tuning.stretch = stretch;
     }
-    Ok(())
-}
-
-fn within(field: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<(), String> {
-    if (lo..=hi).contains(&value) {
-        Ok(())
-    } else {
-        Err(format!("{field}: must be from {lo} to {hi}{unit} (got {value})"))
+    if let Some(path) = &args.scl {
+        let scale = ScalaScale::load(path).map_err(|e| Failure::bad_input(format!("--scl {e}")))?;
+        tuning.scale = Some(scale);
+        tuning.temperament = Temperament::Scala;
     }
+    if let Some(path) = &args.kbm {
+        let mapping = KeyboardMapping::load(path).map_err(|e| Failure::bad_input(format!("--kbm {e}")))?;
+        let Some(scale) = tuning.scale.as_mut() else {
+            return Err(Failure::bad_input(
+                "--kbm: a keyboard mapping needs a scale (--scl FILE, or a preset with one)",
+            ));
+        };
+        scale.keyboard_mapping = Some(mapping);
+        tuning.temperament = Temperament::Scala;
+    }
+    tuning.validate().map_err(|e| match e.field.as_str() {
+        "temperament" => Failure::bad_input("--temperament: scala needs a scale (--scl FILE, or a preset with one)"),
+        _ => Failure::bad_input(format!("tuning.{e}")),
+    })?;
+    Ok(tuning)
 }
 
 #[cfg(test)]
@@ -422,37 +402,5 @@ mod tests {
         for block in [1, 7, 500, 4096] {
             assert!(play(block) == reference, "block size {block}");
         }
-    }
-
-    #[test]
-    fn preset_fields_are_checked_by_name() {
-        let dir = std::env::temp_dir().join(format!("struck-preset-{}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
-        let check = |text: &str| {
-            let path = dir.join("p.json");
-            fs::write(&path, text).unwrap();
-            load_preset(&path)
-        };
-        let good = check(r#"{"instrument": "santoor", "voicing": {"damping": 0.5}, "controls": {"polyphony": 8}}"#);
-        let good = good.unwrap();
-        assert_eq!(good.instrument, Some(InstrumentKind::Santoor));
-        assert_eq!(good.voicing.damping, 0.5);
-        assert_eq!(good.voicing.hammer_mass, 1.0);
-        assert_eq!(good.controls.polyphony, 8);
-        assert_eq!(check("{}").unwrap(), Preset::default());
-        for (text, named) in [
-            (r#"{"voicng": {}}"#, "voicng"),
-            (r#"{"voicing": {"hammer_mas": 1}}"#, "voicing.hammer_mas"),
-            (r#"{"controls": {"polyphony": "many"}}"#, "controls.polyphony"),
-            (r#"{"controls": {"touch_max": 2}}"#, "controls.touch_max"),
-            (r#"{"instrument": "organ"}"#, "instrument"),
-            (r#"{"voicing": 3}"#, "voicing"),
-            ("[1]", "object"),
-            ("{", "JSON"),
-        ] {
-            let e = check(text).unwrap_err();
-            assert!(e.contains(named), "{text}: {e}");
-        }
-        fs::remove_dir_all(&dir).unwrap();
     }
 }

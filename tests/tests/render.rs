@@ -173,9 +173,23 @@ fn midi_files_are_what_their_generator_writes() {
 #[test]
 fn help_describes_render() {
     let help = stdout(&struck(&["render", "--help"]));
-    for expected in
-        ["--out", "--instrument", "--preset", "--sample-rate", "--tail-s", "--block-size", "-q", "exit status 2"]
-    {
+    for expected in [
+        "--out",
+        "--instrument",
+        "--preset",
+        "--sample-rate",
+        "--tail-s",
+        "--block-size",
+        "-q",
+        "exit status 2",
+        "--a4",
+        "--temperament",
+        "--stretch",
+        "--scl",
+        "--kbm",
+        "piano|fortepiano|santoor|dulcimer|cimbalom|clavichord|harpsichord",
+        "equal|meantone|werckmeister3|vallotti",
+    ] {
         assert!(help.contains(expected), "render --help lacks {expected}: {help}");
     }
     assert!(stdout(&struck(&["--help"])).contains("render"));
@@ -212,13 +226,16 @@ fn quiet_prints_nothing() {
     assert_eq!(Wav::read(&scratch.out()).len(), 72_000);
 }
 
-/// The fundamental of A4 is at 440 Hz on every instrument (each string is tuned by
-/// its first partial, so the stretch of the higher partials does not move it).
+/// Every instrument is accepted by name, and its A4 sounds at 440 Hz (each string
+/// is tuned by its first partial, so the stretch of the higher partials does not move it).
 #[test]
 fn a4_sounds_at_440_hz() {
     let scratch = Scratch::new();
-    for instrument in ["piano", "santoor", "clavichord", "harpsichord"] {
-        let wav = scratch.wav(&midi("a4.mid"), &["--tail-s", "0", "--instrument", instrument]);
+    for instrument in ["piano", "fortepiano", "santoor", "dulcimer", "cimbalom", "clavichord", "harpsichord"] {
+        let out = scratch.render(&midi("a4.mid"), &["--tail-s", "0", "--instrument", instrument]);
+        assert!(out.status.success(), "{instrument}: {}", stderr(&out));
+        assert!(stdout(&out).contains(instrument), "{}", stdout(&out));
+        let wav = Wav::read(&scratch.out());
         let f = wav.pitch_hz(0.6, 1.45, 440.0);
         assert!(cents(f, 440.0).abs() < 5.0, "{instrument}: A4 at {f:.3} Hz ({:+.2} cents)", cents(f, 440.0));
     }
@@ -240,6 +257,67 @@ fn pitch_bend_shifts_the_pitch() {
     let wav = scratch.wav(&midi("a4-bend-up.mid"), &["--tail-s", "0", "--preset", path_str(&preset)]);
     let f = wav.pitch_hz(0.6, 1.45, a_sharp);
     assert!(cents(f, a_sharp).abs() < 5.0, "bent A4 at {f:.3} Hz, A#4 is {a_sharp:.3} Hz");
+}
+
+/// --a4 415 moves A4 down to 415 Hz (a semitone, near enough: 100.7 cents).
+#[test]
+fn a4_reference_moves_the_pitch() {
+    let scratch = Scratch::new();
+    let wav = scratch.wav(&midi("a4.mid"), &["--tail-s", "0", "--a4", "415"]);
+    let f = wav.pitch_hz(0.6, 1.45, 415.0);
+    assert!(cents(f, 415.0).abs() < 5.0, "A4 at {f:.3} Hz with --a4 415");
+}
+
+/// C4 held from 0.5 s to 1.5 s (written into the scratch directory).
+fn c4_song(scratch: &Scratch) -> PathBuf {
+    let mut track = midi_gen::TrackBuilder::new();
+    track.tempo(0, 120.0).note(midi_gen::at_120(0.5), midi_gen::at_120(1.0), midi_gen::key("C4"), 100);
+    let path = scratch.path("c4.mid");
+    std::fs::write(&path, midi_gen::smf_bytes(midly::Format::SingleTrack, midi_gen::metrical(), &[track])).unwrap();
+    path
+}
+
+const C4_EQUAL_HZ: f64 = 261.625_565;
+
+/// A harpsichord preset in quarter-comma meantone from C (A4 at 440 Hz): C4 sits
+/// 10.26 cents above its equal-tempered pitch, and the summary says so. The flags
+/// override the preset's tuning: --temperament equal puts C4 back.
+#[test]
+fn a_preset_with_a_tuning_renders_in_it() {
+    let scratch = Scratch::new();
+    let song = c4_song(&scratch);
+    let preset = scratch.path("meantone.json");
+    std::fs::write(
+        &preset,
+        r#"{"name": "Meantone harpsichord", "instrument": "harpsichord", "tuning": {"temperament": "meantone"}}"#,
+    )
+    .unwrap();
+    let out = scratch.render(&song, &["--tail-s", "0", "--preset", path_str(&preset)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("harpsichord (quarter-comma meantone, A4 = 440 Hz)"), "{}", stdout(&out));
+    let f = Wav::read(&scratch.out()).pitch_hz(0.6, 1.45, C4_EQUAL_HZ);
+    assert!((cents(f, C4_EQUAL_HZ) - 10.26).abs() < 2.0, "C4 at {f:.3} Hz ({:+.2} c)", cents(f, C4_EQUAL_HZ));
+
+    let wav = scratch.wav(&song, &["--tail-s", "0", "--preset", path_str(&preset), "--temperament", "equal"]);
+    let f = wav.pitch_hz(0.6, 1.45, C4_EQUAL_HZ);
+    assert!(cents(f, C4_EQUAL_HZ).abs() < 2.0, "C4 at {f:.3} Hz ({:+.2} c)", cents(f, C4_EQUAL_HZ));
+}
+
+/// A just major scale on the white keys (--scl with --kbm, A4 = 440 Hz the
+/// reference): C4 is 3/5 of A4, 264 Hz, 15.6 cents above equal temperament.
+#[test]
+fn a_scala_scale_and_mapping_tune_the_keys() {
+    let scratch = Scratch::new();
+    let song = c4_song(&scratch);
+    let scl = scratch.path("just.scl");
+    std::fs::write(&scl, "! just.scl\nJust major\n 7\n9/8\n5/4\n4/3\n3/2\n5/3\n15/8\n2/1\n").unwrap();
+    let kbm = scratch.path("white.kbm");
+    std::fs::write(&kbm, "! white.kbm\n12\n0\n127\n60\n69\n440.0\n7\n0\nx\n1\nx\n2\n3\nx\n4\nx\n5\nx\n6\n").unwrap();
+    let out = scratch.render(&song, &["--tail-s", "0", "--scl", path_str(&scl), "--kbm", path_str(&kbm)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).contains("scale \"Just major\""), "{}", stdout(&out));
+    let f = Wav::read(&scratch.out()).pitch_hz(0.6, 1.45, 264.0);
+    assert!(cents(f, 264.0).abs() < 2.0, "C4 at {f:.3} Hz, just C4 is 264 Hz");
 }
 
 /// C4 released at 0.5 s: with the sustain pedal down it rings on; without, the
@@ -407,6 +485,13 @@ fn refuses_bad_arguments() {
         (&["--block-size", "8193"], "--block-size"),
         (&["--instrument", "organ"], "organ"),
         (&["--preset", "no-such-preset.json"], "no-such-preset.json"),
+        (&["--a4", "500"], "--a4: must be from 380 to 480 Hz (got 500)"),
+        (&["--a4", "NaN"], "--a4"),
+        (&["--stretch", "1.5"], "--stretch: must be from 0 to 1"),
+        (&["--stretch", "-0.1"], "--stretch"),
+        (&["--temperament", "pythagorean"], "--temperament: unknown temperament \"pythagorean\""),
+        (&["--temperament", "scala"], "--temperament: scala needs a scale"),
+        (&["--scl", "no-such-scale.scl"], "--scl no-such-scale.scl: cannot read"),
     ] {
         assert_refused(&scratch, &song, args, named);
     }
@@ -424,6 +509,9 @@ fn refuses_bad_presets() {
         (r#"{"controls": {"polyphony": "all"}}"#, "controls.polyphony"),
         (r#"{"controls": {"touch_max": 3}}"#, "controls.touch_max"),
         (r#"{"tempo": 1}"#, "tempo"),
+        (r#"{"tuning": {"a4_hz": 500}}"#, "tuning.a4_hz"),
+        (r#"{"tuning": {"temperament": "scala"}}"#, "tuning.temperament"),
+        (r#"{"voicing": {"tangent_depth": -1}}"#, "voicing.tangent_depth"),
         ("{", "JSON"),
     ] {
         std::fs::write(&preset, text).unwrap();
@@ -432,6 +520,38 @@ fn refuses_bad_presets() {
         assert!(message.contains("preset.json"), "{text}: {message}");
         assert_refused(&scratch, &song, &["--preset", path_str(&preset)], named);
     }
+}
+
+/// A malformed tuning file is refused with its name, line and reason; nothing is written.
+#[test]
+fn refuses_bad_tuning_files() {
+    let scratch = Scratch::new();
+    let song = midi("a4.mid");
+    let scl = scratch.path("bad.scl");
+    std::fs::write(&scl, "! bad.scl\nA broken scale\n3\n9/8\n3/0\n2/1\n").unwrap();
+    assert_refused(
+        &scratch,
+        &song,
+        &["--scl", path_str(&scl)],
+        r#"bad.scl: line 5: "3/0" is not a ratio (denominator 0)"#,
+    );
+    std::fs::write(&scl, "! short.scl\nToo few\n12\n100.0\n").unwrap();
+    assert_refused(&scratch, &song, &["--scl", path_str(&scl)], "11 of the 12 pitches are missing");
+
+    let good = scratch.path("good.scl");
+    std::fs::write(&good, "Equal\n1\n2/1\n").unwrap();
+    let kbm = scratch.path("bad.kbm");
+    std::fs::write(&kbm, "12\n0\n127\n60\n69\n-440\n12\n").unwrap();
+    assert_refused(&scratch, &song, &["--scl", path_str(&good), "--kbm", path_str(&kbm)], "bad.kbm: line 6");
+    assert_refused(&scratch, &song, &["--kbm", path_str(&kbm)], "bad.kbm");
+    std::fs::write(&kbm, "0\n0\n127\n60\n69\n440\n0\n").unwrap();
+    assert_refused(&scratch, &song, &["--kbm", path_str(&kbm)], "--kbm: a keyboard mapping needs a scale");
+    assert_refused(
+        &scratch,
+        &song,
+        &["--scl", path_str(&good), "--temperament", "meantone"],
+        "--temperament meantone and --scl",
+    );
 }
 
 /// A WAV that cannot be put in place (the name is taken by a directory) fails

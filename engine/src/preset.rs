@@ -1,0 +1,491 @@
+//! Presets: an instrument, its voicing, the player's controls and its tuning under
+//! a name, kept as JSON.
+//!
+//! Every part of a preset is optional; what is missing is the instrument as built
+//! (piano, voiced as built, default controls, equal temperament at A4 = 440 Hz):
+//!
+//! ```json
+//! { "name": "Harpsichord — meantone",
+//!   "instrument": "harpsichord",
+//!   "voicing":  { "hammer_mass": 1.0, "strike_position": 1.0, "damping": 0.8, ... },
+//!   "controls": { "touch_min": 0.0, "touch_max": 1.0, "polyphony": 64, ... },
+//!   "tuning":   { "a4_hz": 415.0, "temperament": "meantone", "root": 0, "stretch": 0.0 } }
+//! ```
+//!
+//! A preset is refused whole, with one line naming the field and the reason, if
+//! any field is unknown, of the wrong type or out of range; nothing is then
+//! changed. The factory presets ship inside the engine (`engine/presets/`); the
+//! user's are files in [`user_preset_dir`], written so that a crash never leaves
+//! half a file ([`save_user_preset`]).
+
+use std::ffi::OsString;
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::instrument::{InstrumentKind, Voicing};
+use crate::synth::{Controls, InstrumentSettings};
+use crate::tuning::{FieldError, TuningSettings};
+
+/// Longest preset name, characters.
+pub const MAX_NAME_CHARS: usize = 100;
+/// A preset file is read only up to this size, bytes (a Scala scale inside it included).
+pub const MAX_FILE_BYTES: u64 = 4 << 20;
+
+/// A named instrument, voicing, controls and tuning.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Preset {
+    /// What the preset is called (a user preset's file is named after it).
+    pub name: String,
+    /// None: whatever instrument is playing (the piano when nothing else says).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instrument: Option<InstrumentKind>,
+    /// Scale factors on the instrument's own values (1 = as built).
+    pub voicing: Voicing,
+    /// Touch, polyphony, output gain, bend range.
+    pub controls: Controls,
+    pub tuning: TuningSettings,
+}
+
+/// Why a preset was refused, or could not be read or written; one line.
+#[derive(Debug, thiserror::Error)]
+pub enum PresetError {
+    /// The content: names the field and the reason.
+    #[error("{0}")]
+    Invalid(String),
+    /// A file: names it, then what went wrong.
+    #[error("{}: {reason}", path.display())]
+    File { path: PathBuf, reason: String },
+    /// A name that cannot be a file name.
+    #[error("preset name \"{name}\": {reason}")]
+    Name { name: String, reason: String },
+}
+
+impl From<FieldError> for PresetError {
+    fn from(e: FieldError) -> Self {
+        PresetError::Invalid(e.to_string())
+    }
+}
+
+impl Preset {
+    /// Read and check a preset from JSON text.
+    pub fn parse(text: &str) -> Result<Self, PresetError> {
+        let value: Value =
+            serde_json::from_str(text).map_err(|e| PresetError::Invalid(format!("not valid JSON: {e}")))?;
+        let Value::Object(top) = &value else {
+            return Err(PresetError::Invalid("a preset must be a JSON object".into()));
+        };
+        // Voicing and Controls fill in missing fields but take unknown ones without
+        // a word: a misspelt field would silently do nothing, so their keys are
+        // checked against their defaults' keys.
+        for (section, defaults) in [
+            ("voicing", serde_json::to_value(Voicing::default())),
+            ("controls", serde_json::to_value(Controls::default())),
+        ] {
+            if let (Some(given), Ok(defaults)) = (top.get(section), defaults) {
+                known_fields(section, given, &defaults)?;
+            }
+        }
+        let preset: Preset = serde_path_to_error::deserialize(value).map_err(|e| {
+            let path = e.path().to_string();
+            let reason = e.into_inner();
+            PresetError::Invalid(if path == "." { reason.to_string() } else { format!("{path}: {reason}") })
+        })?;
+        preset.validate()?;
+        Ok(preset)
+    }
+
+    /// The preset as JSON (pretty-printed; every field written).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a preset is plain data")
+    }
+
+    /// Read and check a preset file; the error names the file.
+    pub fn load(path: &Path) -> Result<Self, PresetError> {
+        let file_error = |reason: String| PresetError::File { path: path.to_path_buf(), reason };
+        let size = fs::metadata(path).map_err(|e| file_error(format!("cannot read: {e}")))?.len();
+        if size > MAX_FILE_BYTES {
+            return Err(file_error(format!("{size} bytes is too large for a preset (at most {MAX_FILE_BYTES})")));
+        }
+        let text = fs::read_to_string(path).map_err(|e| file_error(format!("cannot read: {e}")))?;
+        Self::parse(&text).map_err(|e| file_error(e.to_string()))
+    }
+
+    /// Check every number against its range; the error names the field.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        if self.name.chars().count() > MAX_NAME_CHARS || self.name.chars().any(char::is_control) {
+            return Err(field(
+                "name",
+                format!("must be at most {MAX_NAME_CHARS} characters, none of them control characters"),
+            ));
+        }
+        let v = &self.voicing;
+        for (name, value) in [
+            ("hammer_mass", v.hammer_mass),
+            ("hammer_stiffness", v.hammer_stiffness),
+            ("hammer_exponent", v.hammer_exponent),
+            ("strike_position", v.strike_position),
+            ("damping", v.damping),
+            ("tangent_depth", v.tangent_depth),
+        ] {
+            within(&format!("voicing.{name}"), value, 0.01, 100.0, "")?;
+        }
+        within("voicing.unison_detune", v.unison_detune, 0.0, 100.0, "")?;
+        let c = &self.controls;
+        within("controls.touch_min", c.touch_min, 0.0, 1.0, "")?;
+        within("controls.touch_max", c.touch_max, 0.0, 1.0, "")?;
+        within("controls.touch_shape", c.touch_shape, 0.1, 10.0, "")?;
+        within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
+        within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
+        if !(1..=128).contains(&c.polyphony) {
+            return Err(field("controls.polyphony", format!("must be from 1 to 128 keys (got {})", c.polyphony)));
+        }
+        self.tuning.validate().map_err(|e| e.within("tuning"))
+    }
+
+    /// What the instrument's tables are built from, at `sample_rate_hz`.
+    pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
+        InstrumentSettings {
+            kind: self.instrument.unwrap_or_default(),
+            voicing: self.voicing,
+            sample_rate_hz,
+            tuning: self.tuning.clone(),
+        }
+    }
+}
+
+fn field(name: &str, reason: String) -> FieldError {
+    FieldError { field: name.to_string(), reason }
+}
+
+fn within(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<(), FieldError> {
+    if (lo..=hi).contains(&value) {
+        Ok(())
+    } else {
+        Err(field(name, format!("must be from {lo} to {hi}{unit} (got {value})")))
+    }
+}
+
+/// Every key of `section` must be one of `defaults`' keys.
+fn known_fields(name: &str, section: &Value, defaults: &Value) -> Result<(), PresetError> {
+    let (Value::Object(fields), Value::Object(known)) = (section, defaults) else {
+        return Err(PresetError::Invalid(format!("{name}: must be a JSON object")));
+    };
+    if let Some(unknown) = fields.keys().find(|k| !known.contains_key(*k)) {
+        let expected: Vec<&str> = known.keys().map(String::as_str).collect();
+        return Err(PresetError::Invalid(format!(
+            "{name}.{unknown}: unknown field (expected one of {})",
+            expected.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// The factory presets' JSON, in the order they are listed.
+const FACTORY: [&str; 17] = [
+    include_str!("../presets/piano-concert.json"),
+    include_str!("../presets/piano-mellow.json"),
+    include_str!("../presets/piano-bright.json"),
+    include_str!("../presets/fortepiano-viennese.json"),
+    include_str!("../presets/fortepiano-moderator.json"),
+    include_str!("../presets/santoor-classical.json"),
+    include_str!("../presets/santoor-soft-mallets.json"),
+    include_str!("../presets/dulcimer-bright.json"),
+    include_str!("../presets/dulcimer-padded.json"),
+    include_str!("../presets/cimbalom-concert.json"),
+    include_str!("../presets/cimbalom-leather.json"),
+    include_str!("../presets/clavichord-werckmeister.json"),
+    include_str!("../presets/clavichord-deep-bebung.json"),
+    include_str!("../presets/clavichord-fretted.json"),
+    include_str!("../presets/harpsichord-meantone.json"),
+    include_str!("../presets/harpsichord-werckmeister.json"),
+    include_str!("../presets/harpsichord-vallotti-french.json"),
+];
+
+/// The presets that ship with Struck, at least two for each instrument. Allocates.
+pub fn factory_presets() -> Vec<Preset> {
+    FACTORY.iter().map(|text| Preset::parse(text).expect("every factory preset is checked by the tests")).collect()
+}
+
+/// Where the user's presets live: `$XDG_CONFIG_HOME/struck/presets`, else
+/// `$HOME/.config/struck/presets`; None when neither variable is set.
+pub fn user_preset_dir() -> Option<PathBuf> {
+    preset_dir_from(std::env::var_os("XDG_CONFIG_HOME"), std::env::var_os("HOME"))
+}
+
+fn preset_dir_from(xdg_config_home: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+    // The XDG rules: a relative XDG_CONFIG_HOME is to be ignored.
+    let config = match xdg_config_home.map(PathBuf::from).filter(|p| p.is_absolute()) {
+        Some(config) => config,
+        None => PathBuf::from(home.filter(|h| !h.is_empty())?).join(".config"),
+    };
+    Some(config.join("struck").join("presets"))
+}
+
+/// Check that `name` can be a file name on any system: not empty, no longer than
+/// [`MAX_NAME_CHARS`], no path separators or characters Windows refuses, no
+/// control characters, no leading dot or surrounding spaces, no reserved device name.
+pub fn check_name(name: &str) -> Result<(), PresetError> {
+    let refuse = |reason: &str| Err(PresetError::Name { name: name.to_string(), reason: reason.to_string() });
+    if name.trim().is_empty() {
+        return refuse("a preset needs a name");
+    }
+    if name.chars().count() > MAX_NAME_CHARS {
+        return refuse("longer than 100 characters");
+    }
+    if let Some(c) = name.chars().find(|c| "/\\:*?\"<>|".contains(*c)) {
+        return Err(PresetError::Name {
+            name: name.to_string(),
+            reason: format!("'{c}' cannot be in a file name (nor any of / \\ : * ? \" < > |)"),
+        });
+    }
+    if name.chars().any(char::is_control) {
+        return refuse("control characters cannot be in a file name");
+    }
+    if name.starts_with('.') {
+        return refuse("a name starting with '.' would make a hidden file");
+    }
+    if name.trim() != name || name.ends_with('.') {
+        return refuse("a file name cannot start or end with a space, nor end with '.'");
+    }
+    let stem = name.split('.').next().unwrap_or(name).trim_end().to_ascii_uppercase();
+    let reserved = ["CON", "PRN", "AUX", "NUL"].contains(&stem.as_str())
+        || ((stem.starts_with("COM") || stem.starts_with("LPT"))
+            && stem.len() == 4
+            && stem.as_bytes()[3].is_ascii_digit());
+    if reserved {
+        return refuse("a device name on Windows, not a file name");
+    }
+    Ok(())
+}
+
+/// The file a user preset called `name` is kept in, within `dir`.
+pub fn user_preset_path(dir: &Path, name: &str) -> PathBuf {
+    dir.join(format!("{name}.json"))
+}
+
+/// Write `preset` into `dir` (created if missing) as `NAME.json`, replacing a
+/// preset of the same name. The preset is checked first, and written to a
+/// temporary file that is renamed into place once complete, so the file is
+/// always either the old preset or the new one in full. Returns the file's path.
+pub fn save_user_preset(dir: &Path, preset: &Preset) -> Result<PathBuf, PresetError> {
+    static WRITES: AtomicU64 = AtomicU64::new(0);
+    check_name(&preset.name)?;
+    preset.validate()?;
+    let path = user_preset_path(dir, &preset.name);
+    let file_error = |path: &Path, what: &str, e: std::io::Error| PresetError::File {
+        path: path.to_path_buf(),
+        reason: format!("cannot {what}: {e}"),
+    };
+    fs::create_dir_all(dir).map_err(|e| file_error(dir, "create the directory", e))?;
+    let temporary = dir.join(format!(
+        ".{}.json.{}-{}.part",
+        preset.name,
+        std::process::id(),
+        WRITES.fetch_add(1, Ordering::Relaxed)
+    ));
+    let written = (|| {
+        let mut file = fs::File::create_new(&temporary)?;
+        file.write_all(preset.to_json().as_bytes())?;
+        file.write_all(b"\n")?;
+        file.sync_all()?;
+        fs::rename(&temporary, &path)
+    })();
+    if let Err(e) = written {
+        let _ = fs::remove_file(&temporary);
+        return Err(file_error(&path, "write", e));
+    }
+    Ok(path)
+}
+
+/// The preset files in `dir` (`*.json`, hidden and temporary files left out),
+/// sorted by name; none when the directory does not exist.
+pub fn list_user_presets(dir: &Path) -> Result<Vec<PathBuf>, PresetError> {
+    let entries = match fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(PresetError::File { path: dir.to_path_buf(), reason: format!("cannot list: {e}") }),
+    };
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(Result::ok)
+        .map(|entry| entry.path())
+        .filter(|path| {
+            let visible = path.file_name().and_then(|n| n.to_str()).is_some_and(|n| !n.starts_with('.'));
+            visible && path.extension().is_some_and(|e| e == "json") && path.is_file()
+        })
+        .collect();
+    paths.sort_by_key(|p| p.file_name().map(|n| n.to_string_lossy().to_lowercase()));
+    Ok(paths)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{Event, Instrument, Synth, TimedEvent};
+    use crate::tuning::Temperament;
+
+    /// A scratch directory of its own for each test.
+    struct Scratch(PathBuf);
+
+    impl Scratch {
+        fn new(test: &str) -> Self {
+            let dir = std::env::temp_dir().join(format!("struck-preset-{test}-{}", std::process::id()));
+            let _ = fs::remove_dir_all(&dir);
+            fs::create_dir_all(&dir).unwrap();
+            Self(dir)
+        }
+
+        fn files(&self) -> Vec<String> {
+            let mut names: Vec<String> =
+                fs::read_dir(&self.0).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+            names.sort();
+            names
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// Every factory preset loads, renders a note (its instrument built from its
+    /// settings, A4 played through the synth: finite, not silent), and round-trips.
+    #[test]
+    fn every_factory_preset_loads_renders_and_round_trips() {
+        let presets = factory_presets();
+        for kind in InstrumentKind::ALL {
+            let count = presets.iter().filter(|p| p.instrument == Some(kind)).count();
+            assert!(count >= 2, "{kind} has {count} factory presets");
+        }
+        let mut names: Vec<&str> = presets.iter().map(|p| p.name.as_str()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), presets.len(), "names are unique");
+        for preset in &presets {
+            check_name(&preset.name).unwrap();
+            let kind = preset.instrument.expect("a factory preset names its instrument");
+            assert!(preset.name.to_lowercase().starts_with(kind.name()), "{} is a {kind} preset", preset.name);
+            assert_eq!(&Preset::parse(&preset.to_json()).unwrap(), preset, "{} round-trips", preset.name);
+
+            let instrument = Instrument::build(&preset.settings(48_000.0)).unwrap();
+            let (mut synth, _scope) = Synth::new(Box::new(instrument));
+            synth.set_controls(preset.controls);
+            let (mut left, mut right) = (vec![0.0f32; 9600], vec![0.0f32; 9600]);
+            synth.process(&[TimedEvent::new(0, Event::NoteOn { key: 69, velocity: 0.8 })], &mut left, &mut right);
+            assert!(left.iter().chain(&right).all(|s| s.is_finite()), "{}: finite", preset.name);
+            let peak = left.iter().chain(&right).fold(0.0f32, |m, s| m.max(s.abs()));
+            assert!(peak > 1e-4, "{}: peak {peak}", preset.name);
+        }
+    }
+
+    #[test]
+    fn missing_parts_are_the_instrument_as_built() {
+        assert_eq!(Preset::parse("{}").unwrap(), Preset::default());
+        let p = Preset::parse(
+            r#"{"instrument": "santoor", "voicing": {"damping": 0.5}, "controls": {"polyphony": 8},
+                "tuning": {"temperament": "vallotti", "a4_hz": 430}}"#,
+        )
+        .unwrap();
+        assert_eq!(p.instrument, Some(InstrumentKind::Santoor));
+        assert_eq!(p.voicing.damping, 0.5);
+        assert_eq!(p.voicing.hammer_mass, 1.0);
+        assert_eq!(p.controls.polyphony, 8);
+        assert_eq!(p.tuning.temperament, Temperament::Vallotti);
+        assert_eq!(p.tuning.a4_hz, 430.0);
+        assert_eq!(p.tuning.stretch, 0.0);
+    }
+
+    #[test]
+    fn malformed_presets_name_the_field() {
+        for (text, expected) in [
+            (r#"{"voicng": {}}"#, "voicng"),
+            (r#"{"voicing": {"hammer_mas": 1}}"#, "voicing.hammer_mas: unknown field"),
+            (r#"{"voicing": {"damping": -1}}"#, "voicing.damping: must be from 0.01 to 100 (got -1)"),
+            (r#"{"voicing": {"tangent_depth": 0}}"#, "voicing.tangent_depth"),
+            (r#"{"voicing": {"fretted": 1}}"#, "voicing.fretted: invalid type"),
+            (r#"{"voicing": 3}"#, "voicing: must be a JSON object"),
+            (r#"{"controls": {"polyphony": "many"}}"#, "controls.polyphony: invalid type"),
+            (r#"{"controls": {"polyphony": 0}}"#, "controls.polyphony: must be from 1 to 128"),
+            (r#"{"controls": {"touch_max": 2}}"#, "controls.touch_max"),
+            (r#"{"instrument": "organ"}"#, "instrument: unknown variant `organ`"),
+            (r#"{"name": 3}"#, "name: invalid type"),
+            (r#"{"tuning": {"a4_hz": 500}}"#, "tuning.a4_hz: must be from 380 to 480 Hz (got 500)"),
+            (r#"{"tuning": {"stetch": 1}}"#, "tuning"),
+            (r#"{"tuning": {"temperament": "pythagorean"}}"#, "tuning.temperament: unknown variant"),
+            (r#"{"tuning": {"temperament": "scala"}}"#, "tuning.temperament: scala needs a scale"),
+            (r#"{"tuning": {"scale": {"degrees_cents": [100, "x"]}}}"#, "tuning.scale.degrees_cents[1]: invalid type"),
+            (r#"{"tuning": {"scale": {"degrees_cents": [-5]}}}"#, "tuning.scale.degrees_cents[0]"),
+            ("[1]", "a preset must be a JSON object"),
+            ("{", "not valid JSON"),
+        ] {
+            let e = Preset::parse(text).unwrap_err().to_string();
+            assert!(e.contains(expected), "{text}: {e}");
+            assert_eq!(e.lines().count(), 1, "{e}");
+        }
+    }
+
+    #[test]
+    fn user_presets_are_saved_listed_and_loaded() {
+        let scratch = Scratch::new("save");
+        let dir = scratch.0.join("presets");
+        assert!(list_user_presets(&dir).unwrap().is_empty(), "no directory yet: no presets");
+        let mut preset = factory_presets().remove(0);
+        preset.name = "My piano".into();
+        let path = save_user_preset(&dir, &preset).unwrap();
+        assert_eq!(path, dir.join("My piano.json"));
+        assert_eq!(Preset::load(&path).unwrap(), preset);
+
+        preset.controls.output_gain = 0.5;
+        save_user_preset(&dir, &preset).unwrap();
+        assert_eq!(Preset::load(&path).unwrap().controls.output_gain, 0.5, "replaced");
+        let mut other = preset.clone();
+        other.name = "another".into();
+        save_user_preset(&dir, &other).unwrap();
+        fs::write(dir.join("notes.txt"), "not a preset").unwrap();
+        assert_eq!(list_user_presets(&dir).unwrap(), [dir.join("another.json"), dir.join("My piano.json")]);
+        let files: Vec<String> =
+            fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        assert_eq!(files.len(), 3, "no temporary file left: {files:?}");
+    }
+
+    /// A bad name or a bad value is refused before anything is written; the file
+    /// already there is kept whole.
+    #[test]
+    fn refused_presets_leave_nothing_behind() {
+        let scratch = Scratch::new("refuse");
+        let mut preset = Preset { name: "Keep".into(), ..Default::default() };
+        let path = save_user_preset(&scratch.0, &preset).unwrap();
+        let before = fs::read(&path).unwrap();
+        for name in ["", "  ", "a/b", "a\\b", "what?", ".hidden", "trailing ", "CON", "lpt1.json", "tab\there"] {
+            let e = save_user_preset(&scratch.0, &Preset { name: name.into(), ..Default::default() }).unwrap_err();
+            assert!(matches!(e, PresetError::Name { .. }), "{name:?}: {e}");
+            assert_eq!(e.to_string().lines().count(), 1);
+        }
+        preset.voicing.damping = f64::NAN;
+        let e = save_user_preset(&scratch.0, &preset).unwrap_err().to_string();
+        assert!(e.starts_with("voicing.damping"), "{e}");
+        assert_eq!(fs::read(&path).unwrap(), before);
+        assert_eq!(scratch.files(), ["Keep.json"]);
+
+        fs::write(&path, r#"{"name": "Keep", "controls": {"touch_shape": 50}}"#).unwrap();
+        let e = Preset::load(&path).unwrap_err().to_string();
+        assert!(e.ends_with("Keep.json: controls.touch_shape: must be from 0.1 to 10 (got 50)"), "{e}");
+        let e = Preset::load(&scratch.0.join("none.json")).unwrap_err().to_string();
+        assert!(e.contains("none.json: cannot read"), "{e}");
+    }
+
+    #[test]
+    fn the_user_directory_follows_xdg() {
+        let dir = |xdg: Option<&str>, home: Option<&str>| preset_dir_from(xdg.map(Into::into), home.map(Into::into));
+        assert_eq!(dir(Some("/cfg"), Some("/home/u")), Some(PathBuf::from("/cfg/struck/presets")));
+        assert_eq!(dir(None, Some("/home/u")), Some(PathBuf::from("/home/u/.config/struck/presets")));
+        assert_eq!(dir(Some("relative"), Some("/home/u")), Some(PathBuf::from("/home/u/.config/struck/presets")));
+        assert_eq!(dir(Some(""), None), None);
+    }
+}

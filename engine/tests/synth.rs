@@ -73,7 +73,9 @@ fn every_instrument_sounds_its_key_in_tune_after_silence() {
     for kind in InstrumentKind::ALL {
         let key = 69; // A4 is on every instrument
         let mut s = synth(kind);
-        let out = render(&mut s, 1.0, &[(0.2, Event::NoteOn { key, velocity: 0.8 })], 256);
+        // The sustain pedal down: a cimbalom's damper bar is on the strings without it.
+        let events = [(0.0, Event::Sustain(1.0)), (0.2, Event::NoteOn { key, velocity: 0.8 })];
+        let out = render(&mut s, 1.0, &events, 256);
         assert_eq!(rms(window(&out, 0.0, 0.2)), 0.0, "{kind}: sound before the note");
         let ring = window(&out, 0.4, 0.9);
         assert!(rms(ring) > 1e-3, "{kind}: too quiet ({})", rms(ring));

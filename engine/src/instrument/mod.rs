@@ -1,5 +1,6 @@
-//! The instruments: what every key of a piano, santoor, clavichord or harpsichord
-//! is made of, as plain physical descriptions ([`KeyDesign`]).
+//! The instruments: what every key of a piano, fortepiano, santoor, hammered
+//! dulcimer, cimbalom, clavichord or harpsichord is made of, as plain physical
+//! descriptions ([`KeyDesign`]).
 //!
 //! Nothing here runs on the audio thread. [`design`] answers "what strings and
 //! what exciter does key k have, given the player's voicing"; the real-time layer
@@ -217,7 +218,7 @@ pub struct KeyDesign {
     /// the force of the strings outside `struck` drives those inside, and the other
     /// way round (0: the strings are not coupled).
     pub bridge_coupling_s_kg: f64,
-    /// None: no damper (santoor).
+    /// None: no damper (santoor, dulcimer).
     pub damper: Option<DamperDesign>,
     /// Output gain from bridge force (N) to a full-scale sample.
     pub gain_per_n: f64,

@@ -142,6 +142,7 @@ impl Preset {
         within("controls.touch_shape", c.touch_shape, 0.1, 10.0, "")?;
         within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
         within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
+        within("controls.bebung", c.bebung, 0.0, 1.0, "")?;
         if !(1..=128).contains(&c.polyphony) {
             return Err(field("controls.polyphony", format!("must be from 1 to 128 keys (got {})", c.polyphony)));
         }

@@ -12,6 +12,7 @@ use std::sync::RwLock;
 use nice_plug::prelude::*;
 use struck_engine::instrument::{InstrumentKind, Voicing};
 use struck_engine::synth::{Controls, InstrumentSettings};
+use struck_engine::tuning::{A4_RANGE_HZ, ScalaScale, Temperament, TuningSettings, pitch_class_name};
 
 /// The instrument choice as a host parameter (ids are permanent).
 #[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,6 +58,50 @@ impl Instrument {
     ];
 }
 
+/// The temperament as a host parameter (ids are permanent).
+#[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TemperamentChoice {
+    #[id = "equal"]
+    #[name = "Equal"]
+    Equal,
+    #[id = "meantone"]
+    #[name = "Meantone (1/4 comma)"]
+    Meantone,
+    #[id = "werckmeister3"]
+    #[name = "Werckmeister III"]
+    Werckmeister3,
+    #[id = "vallotti"]
+    #[name = "Vallotti"]
+    Vallotti,
+    #[id = "scala"]
+    #[name = "Scala file"]
+    Scala,
+}
+
+impl TemperamentChoice {
+    pub const ALL: [TemperamentChoice; 5] = [
+        TemperamentChoice::Equal,
+        TemperamentChoice::Meantone,
+        TemperamentChoice::Werckmeister3,
+        TemperamentChoice::Vallotti,
+        TemperamentChoice::Scala,
+    ];
+
+    pub fn temperament(self) -> Temperament {
+        match self {
+            TemperamentChoice::Equal => Temperament::Equal,
+            TemperamentChoice::Meantone => Temperament::Meantone,
+            TemperamentChoice::Werckmeister3 => Temperament::Werckmeister3,
+            TemperamentChoice::Vallotti => Temperament::Vallotti,
+            TemperamentChoice::Scala => Temperament::Scala,
+        }
+    }
+
+    pub fn of(temperament: Temperament) -> Self {
+        Self::ALL.into_iter().find(|c| c.temperament() == temperament).unwrap_or(TemperamentChoice::Equal)
+    }
+}
+
 /// Version of the saved state's layout, kept with the state for future migrations.
 pub const STATE_VERSION: u32 = 1;
 
@@ -73,8 +118,16 @@ pub struct StruckParams {
     pub strings: StringParams,
     #[nested(group = "Tangent")]
     pub tangent: TangentParams,
+    #[nested(group = "Tuning")]
+    pub tuning: TuningParams,
     #[nested(group = "Output")]
     pub output: OutputParams,
+    /// The Scala scale (and keyboard mapping) loaded from the panel, kept with the project.
+    #[persist = "scala-scale"]
+    pub scala: RwLock<Option<ScalaScale>>,
+    /// Where it came from, for the panel.
+    #[persist = "scala-files"]
+    pub scala_files: RwLock<String>,
     /// The layout version of the saved state ([`STATE_VERSION`]).
     #[persist = "state-version"]
     pub state_version: RwLock<u32>,
@@ -131,6 +184,21 @@ pub struct TangentParams {
     /// Fretted: neighbouring keys share a pair of strings; the higher tangent wins.
     #[id = "fret"]
     pub fretted: BoolParam,
+}
+
+#[derive(Params)]
+pub struct TuningParams {
+    /// A4, Hz.
+    #[id = "a4"]
+    pub a4_hz: FloatParam,
+    #[id = "temp"]
+    pub temperament: EnumParam<TemperamentChoice>,
+    /// The pitch class a historical temperament is laid from (0 = C).
+    #[id = "root"]
+    pub root: IntParam,
+    /// Share of the stretch the strings' inharmonicity asks for.
+    #[id = "strt"]
+    pub stretch: FloatParam,
 }
 
 #[derive(Params)]
@@ -200,6 +268,23 @@ impl Default for StruckParams {
                 .with_value_to_string(formatters::v2s_f32_percentage(0))
                 .with_string_to_value(formatters::s2v_f32_percentage()),
             },
+            tuning: TuningParams {
+                a4_hz: FloatParam::new(
+                    "A4",
+                    440.0,
+                    FloatRange::Linear { min: *A4_RANGE_HZ.start() as f32, max: *A4_RANGE_HZ.end() as f32 },
+                )
+                .with_unit(" Hz")
+                .with_step_size(0.1)
+                .with_value_to_string(formatters::v2s_f32_rounded(1)),
+                temperament: EnumParam::new("Temperament", TemperamentChoice::Equal),
+                root: IntParam::new("Temperament root", 0, IntRange::Linear { min: 0, max: 11 })
+                    .with_value_to_string(std::sync::Arc::new(|v| pitch_class_name(v.clamp(0, 11) as u8).to_string()))
+                    .with_string_to_value(std::sync::Arc::new(|s| {
+                        (0..12).find(|&p| pitch_class_name(p as u8).eq_ignore_ascii_case(s.trim()))
+                    })),
+                stretch: percent_param("Stretch", 0.0),
+            },
             output: OutputParams {
                 polyphony: IntParam::new("Polyphony", 64, IntRange::Linear { min: 1, max: 128 }).with_unit(" keys"),
                 bend_range: IntParam::new("Bend range", 2, IntRange::Linear { min: 0, max: 24 }).with_unit(" st"),
@@ -209,6 +294,8 @@ impl Default for StruckParams {
                     .with_value_to_string(formatters::v2s_f32_rounded(1)),
             },
             state_version: RwLock::new(STATE_VERSION),
+            scala: RwLock::new(None),
+            scala_files: RwLock::new(String::new()),
         }
     }
 }
@@ -234,11 +321,23 @@ impl StruckParams {
 
     /// What the instrument's tables are built from, at `sample_rate_hz`.
     pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
-        InstrumentSettings {
-            kind: self.kind(),
-            voicing: self.voicing(),
-            sample_rate_hz,
-            tuning: struck_engine::tuning::TuningSettings::default(),
+        InstrumentSettings { kind: self.kind(), voicing: self.voicing(), sample_rate_hz, tuning: self.tuning() }
+    }
+
+    /// The tuning. Reads a lock (the Scala scale): not for the audio thread.
+    pub fn tuning(&self) -> TuningSettings {
+        let temperament = self.tuning.temperament.value().temperament();
+        let scale = match temperament {
+            Temperament::Scala => self.scala.read().ok().and_then(|s| s.clone()),
+            _ => None,
+        };
+        TuningSettings {
+            a4_hz: self.tuning.a4_hz.value() as f64,
+            // Without a scale loaded, "Scala file" plays equal temperament.
+            temperament: if scale.is_some() { temperament } else { temperament_or_equal(temperament) },
+            root: self.tuning.root.value().clamp(0, 11) as u8,
+            stretch: self.tuning.stretch.value() as f64,
+            scale,
         }
     }
 
@@ -256,6 +355,10 @@ impl StruckParams {
     }
 }
 
+fn temperament_or_equal(t: Temperament) -> Temperament {
+    if t == Temperament::Scala { Temperament::Equal } else { t }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -265,6 +368,7 @@ mod tests {
         let p = StruckParams::default();
         assert_eq!(p.voicing(), Voicing::default());
         assert_eq!(p.controls(), Controls::default());
+        assert_eq!(p.tuning(), TuningSettings::default());
         assert_eq!(p.kind(), InstrumentKind::Piano);
     }
 
@@ -276,13 +380,14 @@ mod tests {
         let expected =
             ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
                 .into_iter()
-                .chain(["poly", "bend", "gain"])
+                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain"])
                 .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();
         assert_eq!(groups[0], "Instrument");
         assert_eq!(groups[10], "Tangent");
-        assert_eq!(groups[15], "Output");
+        assert_eq!(groups[13], "Tuning");
+        assert_eq!(groups[19], "Output");
     }
 
     #[test]

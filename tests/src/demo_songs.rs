@@ -9,8 +9,17 @@
 //!   and rolls, a melody in tremolo (two mallets alternating about twelve times a
 //!   second) over a low drone, a fast rhythmic section of melody and drone strokes,
 //!   and a closing roll.
+//! - `fortepiano-sonatina.mid`: a sonatina movement in C major: a singing melody
+//!   over an Alberti bass, sforzando accents, a turn to G major and back, the
+//!   knee lever (sustain) only under the closing chords.
+//! - `dulcimer-reel.mid`: a reel in D, two mallets alternating in eighth notes with
+//!   drone strokes, the tune crossing between the two sides of the treble bridge.
+//! - `cimbalom-csardas.mid`: a slow lassu with the pedal down (rolls and broken
+//!   chords ringing together), then a fast friss with the pedal up, where the
+//!   damper bar makes every stroke short.
 //! - `clavichord-two-part.mid`: a two-part invention in A minor: a one-bar subject
-//!   and countersubject in imitation through D minor and E minor, softly.
+//!   and countersubject in imitation through D minor and E minor, softly, with
+//!   Bebung (channel aftertouch) on the long notes.
 //! - `harpsichord-prelude.mid`: a prelude of broken chords in sixteenths (a bass
 //!   held under arpeggios) through a cadence in D major.
 //!
@@ -32,7 +41,10 @@ pub fn demo_dir() -> PathBuf {
 pub fn all() -> Vec<(&'static str, Vec<u8>)> {
     vec![
         ("piano-nocturne.mid", piano_nocturne()),
+        ("fortepiano-sonatina.mid", fortepiano_sonatina()),
         ("santoor-tremolo.mid", santoor_tremolo()),
+        ("dulcimer-reel.mid", dulcimer_reel()),
+        ("cimbalom-csardas.mid", cimbalom_csardas()),
         ("clavichord-two-part.mid", clavichord_two_part()),
         ("harpsichord-prelude.mid", harpsichord_prelude()),
     ]
@@ -266,6 +278,183 @@ fn santoor_tremolo() -> Vec<u8> {
     smf_bytes(Format::SingleTrack, metrical(), &[m.track])
 }
 
+/// Fortepiano: sixteen bars of 4/4 at 126 bpm (about 31 s) in C major.
+fn fortepiano_sonatina() -> Vec<u8> {
+    const BPM: f64 = 126.0;
+    let mut right = TrackBuilder::new();
+    let mut left = TrackBuilder::new();
+    right.tempo(0, BPM);
+    // The left hand's Alberti figure for each bar's chord (low, high, middle, high).
+    let chords: [[&str; 3]; 16] = [
+        ["C3", "E3", "G3"],
+        ["C3", "F3", "A3"],
+        ["B2", "D3", "G3"],
+        ["C3", "E3", "G3"],
+        ["C3", "E3", "A3"],
+        ["D3", "F3", "A3"],
+        ["D3", "F#3", "A3"],
+        ["B2", "D3", "G3"],
+        ["B2", "D3", "G3"],
+        ["C3", "E3", "G3"],
+        ["A2", "C3", "F#3"],
+        ["B2", "D3", "G3"],
+        ["C3", "E3", "G3"],
+        ["C3", "F3", "A3"],
+        ["B2", "D3", "G3"],
+        ["C3", "E3", "G3"],
+    ];
+    for (b, [low, mid, high]) in chords.iter().enumerate() {
+        for beat in 0..4 {
+            for (e, name) in [low, high, mid, high].iter().enumerate() {
+                let on = 4.0 * b as f64 + beat as f64 + 0.25 * e as f64;
+                let v = 42.0 + 6.0 * f64::from(u8::from(e == 0)) + 3.0 * scatter((16 * b + 4 * beat + e) as u64);
+                left.note(ticks(on), ticks(0.22), key(name), velocity(v));
+            }
+        }
+    }
+    let melody: [(&str, f64); 40] = [
+        // bars 1-4
+        ("E5", 2.0),
+        ("C5", 1.0),
+        ("G5", 1.0),
+        ("F5", 1.5),
+        ("E5", 0.5),
+        ("D5", 1.0),
+        ("C5", 1.0),
+        ("D5", 1.0),
+        ("G4", 1.0),
+        ("B4", 1.0),
+        ("D5", 1.0),
+        ("C5", 4.0),
+        // bars 5-8: toward G major
+        ("A5", 1.5),
+        ("G5", 0.5),
+        ("E5", 1.0),
+        ("C5", 1.0),
+        ("A5", 1.0),
+        ("F5", 1.0),
+        ("D5", 2.0),
+        ("F#5", 1.0),
+        ("A5", 1.0),
+        ("D6", 1.0),
+        ("C6", 1.0),
+        ("B5", 4.0),
+        // bars 9-12
+        ("D5", 1.0),
+        ("G5", 1.0),
+        ("B5", 1.0),
+        ("G5", 1.0),
+        ("E5", 2.0),
+        ("C6", 2.0),
+        ("A5", 1.0),
+        ("F#5", 1.0),
+        ("D5", 1.0),
+        ("C5", 1.0),
+        ("B4", 4.0),
+        // bars 13-16: home
+        ("G5", 2.0),
+        ("E5", 2.0),
+        ("F5", 2.0),
+        ("D5", 2.0),
+        ("C5", 8.0),
+    ];
+    // Sforzando on the first beat of bars 5 and 9, a diminuendo to the close.
+    let mut beat = 0.0;
+    for (i, &(name, beats)) in melody.iter().enumerate() {
+        let sf = beat == 16.0 || beat == 32.0;
+        let fade = if beat >= 48.0 { (beat - 48.0) * 4.0 } else { 0.0 };
+        let v = if sf { 112.0 } else { 70.0 + 8.0 * scatter(i as u64) - fade };
+        right.note(ticks(beat), ticks(beats * 0.9), key(name), velocity(v));
+        beat += beats;
+    }
+    // The knee lever under the last two bars.
+    right.cc(ticks(56.0), 64, 127).cc(ticks(63.5), 64, 0);
+    smf_bytes(Format::Parallel, metrical(), &[right, left])
+}
+
+/// Hammered dulcimer: a reel in D at 104 bpm, 16 bars of 2/2 plus a final
+/// stroke (about 38 s). Two mallets alternate on eighth notes; the drones sound on
+/// the beats.
+fn dulcimer_reel() -> Vec<u8> {
+    const BPM: f64 = 104.0;
+    let mut m = Mallets { track: TrackBuilder::new(), stroke: 0 };
+    m.track.tempo(0, BPM);
+    // Four bars of eighth notes, played twice (A part) and the B part twice.
+    let a_part = [
+        "D5", "F#5", "A5", "F#5", "D5", "F#5", "A5", "F#5", "E5", "G5", "B5", "G5", "E5", "G5", "B5", "A5", "D5",
+        "F#5", "A5", "D6", "C#6", "A5", "B5", "A5", "G5", "E5", "C#5", "E5", "D5", "D5", "D5", "A4",
+    ];
+    let b_part = [
+        "A5", "B5", "A5", "F#5", "D5", "E5", "F#5", "A5", "G5", "A5", "B5", "G5", "E5", "F#5", "G5", "B5", "A5", "F#5",
+        "D6", "F#5", "A5", "F#5", "E5", "D5", "E5", "C#5", "A4", "C#5", "D5", "F#5", "D5", "D5",
+    ];
+    let mut beat = 0.0;
+    for (pass, tune) in [a_part, a_part, b_part, b_part].iter().enumerate() {
+        for (i, name) in tune.iter().enumerate() {
+            let accent = if i % 4 == 0 { 0.62 } else { 0.45 };
+            m.strike(beat + 0.5 * i as f64, name, accent + 0.04 * pass as f64);
+            if i % 4 == 0 {
+                m.strike(beat + 0.5 * i as f64, if i % 8 == 0 { "D4" } else { "A3" }, 0.35);
+            }
+        }
+        beat += 16.0;
+    }
+    m.roll(64.0, 2.0, "D5", 0.6, 0.2);
+    m.strike(64.0, "D4", 0.6);
+    m.strike(64.0, "A4", 0.45);
+    smf_bytes(Format::SingleTrack, metrical(), &[m.track])
+}
+
+/// Cimbalom: a lassu (slow, 60 bpm, pedal down) and a friss (fast, 132 bpm, pedal
+/// up) in A minor, about 36 s.
+fn cimbalom_csardas() -> Vec<u8> {
+    let mut m = Mallets { track: TrackBuilder::new(), stroke: 0 };
+    m.track.tempo(0, 60.0);
+    // Lassu, beats 0 to 16 at 60 bpm: the pedal down; arpeggiated chords and rolls.
+    m.track.cc(0, 64, 127);
+    let chords: [[&str; 4]; 4] =
+        [["A2", "E3", "A3", "C4"], ["D3", "A3", "D4", "F4"], ["E2", "B2", "E3", "G#3"], ["A2", "E3", "A3", "C4"]];
+    for (c, chord) in chords.iter().enumerate() {
+        let at = 4.0 * c as f64;
+        for (i, name) in chord.iter().enumerate() {
+            m.strike(at + 0.2 * i as f64, name, 0.4 + 0.05 * i as f64);
+        }
+    }
+    let song: [(&str, f64); 8] =
+        [("E5", 2.0), ("C5", 1.0), ("B4", 1.0), ("A4", 2.0), ("F5", 2.0), ("E5", 3.0), ("D5", 1.0), ("C5", 4.0)];
+    let mut beat = 0.0;
+    for &(name, beats) in &song {
+        m.roll(beat + 0.5, beats - 0.25, name, 0.35, 0.55);
+        beat += beats;
+    }
+    // Friss from beat 16 at 132 bpm (tick positions continue in beats): pedal up.
+    m.track.tempo(ticks(16.0), 132.0);
+    m.track.cc(ticks(16.0) - 10, 64, 0);
+    let tune = [
+        "A4", "C5", "E5", "A5", "G#5", "A5", "B5", "A5", "F5", "E5", "D5", "C5", "B4", "C5", "D5", "B4", "A4", "C5",
+        "E5", "A5", "B5", "C6", "B5", "A5", "G#5", "E5", "F5", "D5", "E5", "B4", "C5", "A4",
+    ];
+    for round in 0..2 {
+        for (i, name) in tune.iter().enumerate() {
+            let b = 16.0 + 16.0 * round as f64 + 0.5 * i as f64;
+            m.strike(b, name, 0.55 + 0.1 * f64::from(u8::from(i % 2 == 0)) + 0.1 * round as f64);
+            if i % 2 == 0 {
+                let bass = if (i / 4) % 2 == 0 { "A2" } else { "E2" };
+                m.strike(b, bass, 0.45);
+                m.strike(b + 0.5, "E3", 0.35);
+                m.strike(b + 0.5, "A3", 0.35);
+            }
+        }
+    }
+    // Final chord with the pedal down, left to ring.
+    m.track.cc(ticks(47.5), 64, 127);
+    for name in ["A2", "E3", "A3", "C4", "E4", "A4"] {
+        m.strike(48.0, name, 0.7);
+    }
+    m.track.cc(ticks(52.0), 64, 0);
+    smf_bytes(Format::SingleTrack, metrical(), &[m.track])
+}
+
 /// Clavichord: ten bars of 4/4 at 80 bpm, soft (velocities 30 to 70).
 fn clavichord_two_part() -> Vec<u8> {
     const BPM: f64 = 80.0;
@@ -302,6 +491,18 @@ fn clavichord_two_part() -> Vec<u8> {
         u.play(&descent, 0, |i| 50.0 - 1.5 * i as f64); // bar 8
         u.play(&[("C5", 1.0), ("B4", 1.0), ("A4", 1.0), ("G#4", 1.0)], 0, |i| 44.0 - 2.0 * i as f64); // bar 9
         u.play(&[("A4", 4.0)], 0, |_| 36.0); // bar 10
+    }
+    // Bebung: the finger rocks on the long notes of bars 9 and 10, about five
+    // times a second, deepening and then easing off.
+    for (from, beats) in [(32.0, 1.0), (33.0, 1.0), (34.0, 1.0), (35.0, 1.0), (36.0, 4.0)] {
+        let steps = (beats * 16.0) as usize;
+        for i in 0..steps {
+            let t = from + i as f64 / 16.0;
+            let depth = (std::f64::consts::PI * i as f64 / steps as f64).sin();
+            let rock = 0.5 + 0.5 * (2.0 * std::f64::consts::PI * 5.0 * (t - from) * 60.0 / BPM).sin();
+            upper.pressure(ticks(t), velocity(10.0 + 100.0 * depth * rock));
+        }
+        upper.pressure(ticks(from + beats) - 1, 0);
     }
     {
         let mut l = Line::at(&mut lower, 4.0, 0.92);

@@ -79,6 +79,11 @@ impl TrackBuilder {
         self.midi(tick, 0, MidiMessage::Controller { controller: u7::new(controller), value: u7::new(value) })
     }
 
+    /// Channel pressure (aftertouch) on channel 1, 0..=127.
+    pub fn pressure(&mut self, tick: u64, value: u8) -> &mut Self {
+        self.midi(tick, 0, MidiMessage::ChannelAftertouch { vel: u7::new(value) })
+    }
+
     /// The pitch wheel on channel 1, 0..=16383 (8192 centred).
     pub fn bend(&mut self, tick: u64, raw: u16) -> &mut Self {
         self.midi(tick, 0, MidiMessage::PitchBend { bend: PitchBend(u14::new(raw)) })

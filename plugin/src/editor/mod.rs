@@ -1,11 +1,13 @@
-//! The panel: every parameter, grouped as a player thinks of them (Instrument,
-//! Touch, Hammer, Strings, Tangent, Output), beside a live view of the physics.
+//! The panel: presets, then every parameter, grouped as a player thinks of them
+//! (Instrument, Touch, Hammer, Strings, Tangent, Tuning, Output), beside a live
+//! view of the physics.
 //!
 //! The panel owns the reading end of the engine's [`Scope`] (behind a mutex
 //! that only the panel and `activate` take; the audio thread writes into the
 //! scope's lock-free queues and never sees the lock). It repaints about 30
 //! times a second while open.
 
+mod library;
 pub mod views;
 
 use std::sync::{Arc, Mutex};
@@ -21,7 +23,7 @@ use nice_plug_egui::{
 };
 use struck_engine::synth::Scope;
 
-use crate::params::{Instrument, StruckParams};
+use crate::params::{Instrument, StruckParams, TemperamentChoice};
 use crate::standalone;
 use views::LiveView;
 
@@ -67,11 +69,19 @@ pub struct StruckEditor {
     gui: Option<GuiContext>,
     live: LiveView,
     sample_rate_hz: f64,
+    library: library::Library,
 }
 
 impl StruckEditor {
     pub fn new(params: Arc<StruckParams>, scope: SharedScope) -> Self {
-        Self { params, scope, gui: None, live: LiveView::default(), sample_rate_hz: 48_000.0 }
+        Self {
+            params,
+            scope,
+            gui: None,
+            live: LiveView::default(),
+            sample_rate_hz: 48_000.0,
+            library: library::Library::new(),
+        }
     }
 
     /// Hand the panel the host's context (what `build` receives in a real window).
@@ -90,7 +100,13 @@ impl StruckEditor {
         let params = self.params.clone();
         egui::Panel::left("struck-parameters").exact_size(PARAMS_WIDTH).resizable(false).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| match &self.gui {
-                Some(gui) => parameter_groups(ui, &params, &gui.param_setter()),
+                Some(gui) => {
+                    let setter = gui.param_setter();
+                    self.library.presets(ui, &params, &setter);
+                    parameter_groups(ui, &params, &setter);
+                    self.library.tuning(ui, &params, &setter);
+                    output_group(ui, &params, &setter);
+                }
                 None => {
                     ui.label("(no host context)");
                 }
@@ -114,7 +130,7 @@ impl StruckEditor {
 }
 
 /// One titled group of parameters.
-fn group(ui: &mut Ui, title: &str, add: impl FnOnce(&mut Ui)) {
+pub(crate) fn group(ui: &mut Ui, title: &str, add: impl FnOnce(&mut Ui)) {
     ui.group(|ui| {
         ui.set_width(ui.available_width());
         ui.label(RichText::new(title).strong().size(15.0));
@@ -124,7 +140,7 @@ fn group(ui: &mut Ui, title: &str, add: impl FnOnce(&mut Ui)) {
 }
 
 /// A labelled slider row.
-fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter) {
+pub(crate) fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter) {
     ui.horizontal(|ui| {
         ui.add_sized([118.0, 18.0], egui::Label::new(label));
         ui.add(ParamSlider::for_param(param, setter).with_width(120.0));
@@ -179,10 +195,33 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         });
         ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
     });
+}
+
+fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Output", |ui| {
         slider(ui, "Polyphony", &params.output.polyphony, setter);
         slider(ui, "Bend range", &params.output.bend_range, setter);
         slider(ui, "Level", &params.output.level_db, setter);
+    });
+}
+
+/// Set one parameter as a single gesture.
+pub(crate) fn set<P: Param>(setter: &ParamSetter, param: &P, value: P::Plain) {
+    setter.begin_set_parameter(param);
+    setter.set_parameter(param, value);
+    setter.end_set_parameter(param);
+}
+
+/// The temperament's choices as a row of buttons.
+pub(crate) fn temperament_row(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+    ui.horizontal_wrapped(|ui| {
+        let current = params.tuning.temperament.value();
+        for choice in TemperamentChoice::ALL {
+            let label = choice.temperament().label();
+            if ui.selectable_label(current == choice, label).clicked() && current != choice {
+                set(setter, &params.tuning.temperament, choice);
+            }
+        }
     });
 }
 

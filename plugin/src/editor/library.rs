@@ -1,0 +1,313 @@
+//! The panel's presets and tuning files: factory and user presets loaded into
+//! the parameters and saved from them, and Scala scales loaded from disk.
+//!
+//! Everything here runs on the GUI thread. A file that cannot be read or is
+//! malformed is refused with one line under the buttons, and what was playing
+//! stays as it was.
+
+use std::path::{Path, PathBuf};
+
+use egui::{Color32, RichText, Ui};
+use nice_plug::prelude::*;
+use struck_engine::preset::{Preset, factory_presets, list_user_presets, save_user_preset, user_preset_dir};
+use struck_engine::tuning::{KeyboardMapping, ScalaScale};
+
+use super::{group, set, slider, temperament_row};
+use crate::params::{Instrument, StruckParams, TemperamentChoice};
+
+/// What the panel last did, for the line under the buttons.
+enum Status {
+    None,
+    Done(String),
+    Refused(String),
+}
+
+impl Status {
+    fn show(&self, ui: &mut Ui) {
+        match self {
+            Status::None => {}
+            Status::Done(text) => {
+                ui.label(RichText::new(text).small());
+            }
+            Status::Refused(text) => {
+                ui.label(RichText::new(text).small().color(Color32::from_rgb(230, 110, 90)));
+            }
+        }
+    }
+}
+
+/// One preset the panel offers: a factory preset, or a user preset's file.
+struct Entry {
+    name: String,
+    source: Source,
+}
+
+enum Source {
+    Factory(Box<Preset>),
+    User(PathBuf),
+}
+
+pub struct Library {
+    entries: Vec<Entry>,
+    selected: usize,
+    name: String,
+    preset_status: Status,
+    scl_path: String,
+    kbm_path: String,
+    tuning_status: Status,
+}
+
+impl Library {
+    pub fn new() -> Self {
+        let mut library = Self {
+            entries: Vec::new(),
+            selected: 0,
+            name: String::new(),
+            preset_status: Status::None,
+            scl_path: String::new(),
+            kbm_path: String::new(),
+            tuning_status: Status::None,
+        };
+        library.refresh();
+        library
+    }
+
+    /// The factory presets, then the user's (read again from their folder).
+    fn refresh(&mut self) {
+        self.entries = factory_presets()
+            .into_iter()
+            .map(|p| Entry { name: p.name.clone(), source: Source::Factory(Box::new(p)) })
+            .collect();
+        if let Some(dir) = user_preset_dir() {
+            match list_user_presets(&dir) {
+                Ok(paths) => self.entries.extend(paths.into_iter().map(|path| Entry {
+                    name: format!("{} (user)", path.file_stem().unwrap_or_default().to_string_lossy()),
+                    source: Source::User(path),
+                })),
+                Err(e) => self.preset_status = Status::Refused(e.to_string()),
+            }
+        }
+        self.selected = self.selected.min(self.entries.len().saturating_sub(1));
+    }
+
+    /// The Presets group: choose and load, or name and save.
+    pub fn presets(&mut self, ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+        group(ui, "Presets", |ui| {
+            let chosen = self.entries.get(self.selected).map_or("(none)", |e| e.name.as_str()).to_string();
+            ui.horizontal(|ui| {
+                egui::ComboBox::from_id_salt("struck-presets").width(200.0).selected_text(chosen).show_ui(ui, |ui| {
+                    for (i, entry) in self.entries.iter().enumerate() {
+                        ui.selectable_value(&mut self.selected, i, &entry.name);
+                    }
+                });
+                if ui.button("Load").clicked() {
+                    self.preset_status = match self.load_selected() {
+                        Ok(preset) => {
+                            apply(&preset, params, setter);
+                            Status::Done(format!("loaded \"{}\"", preset.name))
+                        }
+                        Err(e) => Status::Refused(e),
+                    };
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.add(egui::TextEdit::singleline(&mut self.name).hint_text("name").desired_width(200.0));
+                if ui.button("Save").clicked() {
+                    self.preset_status = match self.save(params) {
+                        Ok(path) => {
+                            self.refresh();
+                            Status::Done(format!("saved to {}", path.display()))
+                        }
+                        Err(e) => Status::Refused(e),
+                    };
+                }
+            });
+            self.preset_status.show(ui);
+        });
+    }
+
+    fn load_selected(&self) -> Result<Preset, String> {
+        match &self.entries.get(self.selected).ok_or("no preset chosen")?.source {
+            Source::Factory(preset) => Ok((**preset).clone()),
+            Source::User(path) => Preset::load(path).map_err(|e| e.to_string()),
+        }
+    }
+
+    fn save(&self, params: &StruckParams) -> Result<PathBuf, String> {
+        let dir = user_preset_dir().ok_or("no folder for user presets (neither XDG_CONFIG_HOME nor HOME is set)")?;
+        let preset = Preset {
+            name: self.name.trim().to_string(),
+            instrument: Some(params.kind()),
+            voicing: params.voicing(),
+            controls: params.controls(),
+            tuning: params.tuning(),
+        };
+        save_user_preset(&dir, &preset).map_err(|e| e.to_string())
+    }
+
+    /// The Tuning group: A4, temperament, its root, stretch, and a Scala file.
+    pub fn tuning(&mut self, ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+        group(ui, "Tuning", |ui| {
+            slider(ui, "A4", &params.tuning.a4_hz, setter);
+            temperament_row(ui, params, setter);
+            slider(ui, "Root", &params.tuning.root, setter);
+            slider(ui, "Stretch", &params.tuning.stretch, setter);
+            ui.horizontal(|ui| {
+                ui.add(egui::TextEdit::singleline(&mut self.scl_path).hint_text("scale.scl").desired_width(130.0));
+                ui.add(egui::TextEdit::singleline(&mut self.kbm_path).hint_text("mapping.kbm").desired_width(100.0));
+                if ui.button("Load").clicked() {
+                    self.tuning_status = match load_scale(&self.scl_path, &self.kbm_path) {
+                        Ok(scale) => {
+                            let what = scale.description.clone();
+                            let files = [self.scl_path.trim(), self.kbm_path.trim()]
+                                .into_iter()
+                                .filter(|p| !p.is_empty())
+                                .collect::<Vec<_>>()
+                                .join(" + ");
+                            if let Ok(mut held) = params.scala.write() {
+                                *held = Some(scale);
+                            }
+                            if let Ok(mut held) = params.scala_files.write() {
+                                *held = files;
+                            }
+                            set(setter, &params.tuning.temperament, TemperamentChoice::Scala);
+                            Status::Done(format!("playing {what}"))
+                        }
+                        Err(e) => Status::Refused(e),
+                    };
+                }
+            });
+            if let Ok(files) = params.scala_files.read()
+                && !files.is_empty()
+                && matches!(self.tuning_status, Status::None)
+            {
+                ui.label(RichText::new(format!("scale: {files}")).small());
+            }
+            self.tuning_status.show(ui);
+            ui.label(RichText::new(params.tuning().describe()).small());
+        });
+    }
+}
+
+/// A Scala scale from `scl` and, when given, its keyboard mapping from `kbm`.
+fn load_scale(scl: &str, kbm: &str) -> Result<ScalaScale, String> {
+    if scl.trim().is_empty() {
+        return Err("name a .scl file first".to_string());
+    }
+    let mut scale = ScalaScale::load(Path::new(scl.trim())).map_err(|e| e.to_string())?;
+    if !kbm.trim().is_empty() {
+        scale.keyboard_mapping = Some(KeyboardMapping::load(Path::new(kbm.trim())).map_err(|e| e.to_string())?);
+    }
+    Ok(scale)
+}
+
+/// Set every parameter from `preset` (values beyond a parameter's range are held at its end).
+fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
+    if let Some(kind) = preset.instrument
+        && let Some(choice) = Instrument::ALL.into_iter().find(|c| c.kind() == kind)
+    {
+        set(setter, &params.instrument.kind, choice);
+    }
+    let v = &preset.voicing;
+    set(setter, &params.hammer.mass, v.hammer_mass as f32);
+    set(setter, &params.hammer.stiffness, v.hammer_stiffness as f32);
+    set(setter, &params.hammer.exponent, v.hammer_exponent as f32);
+    set(setter, &params.hammer.position, v.strike_position as f32);
+    set(setter, &params.strings.damping, v.damping as f32);
+    set(setter, &params.strings.detune, v.unison_detune as f32);
+    set(setter, &params.tangent.depth, v.tangent_depth as f32);
+    set(setter, &params.tangent.fretted, v.fretted);
+    let c = &preset.controls;
+    set(setter, &params.touch.min, c.touch_min as f32);
+    set(setter, &params.touch.max, c.touch_max as f32);
+    set(setter, &params.touch.shape, c.touch_shape as f32);
+    set(setter, &params.tangent.bebung, c.bebung as f32);
+    set(setter, &params.output.polyphony, c.polyphony.clamp(1, 128) as i32);
+    set(setter, &params.output.bend_range, c.bend_range_semitones.round() as i32);
+    set(setter, &params.output.level_db, (20.0 * c.output_gain.max(1e-3).log10()) as f32);
+    let t = &preset.tuning;
+    if let Ok(mut held) = params.scala.write() {
+        *held = t.scale.clone();
+    }
+    if let Ok(mut held) = params.scala_files.write() {
+        *held = t.scale.as_ref().map(|s| s.description.clone()).unwrap_or_default();
+    }
+    set(setter, &params.tuning.a4_hz, t.a4_hz as f32);
+    set(setter, &params.tuning.temperament, TemperamentChoice::of(t.temperament));
+    set(setter, &params.tuning.root, i32::from(t.root));
+    set(setter, &params.tuning.stretch, t.stretch as f32);
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use nice_plug::context::gui::{GuiContext, GuiContextInner};
+
+    use super::*;
+
+    /// A host that sets what the panel asks it to set, as a real one does.
+    struct Host;
+
+    impl GuiContextInner for Host {
+        fn plugin_api(&self) -> PluginApi {
+            PluginApi::Standalone
+        }
+        unsafe fn raw_begin_set_parameter(&self, _param: ParamPtr) {}
+        unsafe fn raw_set_parameter_normalized(&self, param: ParamPtr, normalized: f32) {
+            // SAFETY: the pointer comes from the test's own StruckParams, alive for the call.
+            unsafe { param._internal_set_normalized_value(normalized) };
+        }
+        unsafe fn raw_end_set_parameter(&self, _param: ParamPtr) {}
+        fn get_state(&self) -> PluginState {
+            unreachable!("presets do not go through the host's state")
+        }
+        fn set_state(&self, _state: PluginState) {}
+        fn request_restart(&self) {}
+    }
+
+    #[test]
+    fn every_factory_preset_loads_into_the_parameters_and_saves_back() {
+        let gui = GuiContext::new(Arc::new(Host));
+        let setter = gui.param_setter();
+        for preset in factory_presets() {
+            let params = StruckParams::default();
+            apply(&preset, &params, &setter);
+            let saved = Preset {
+                name: preset.name.clone(),
+                instrument: Some(params.kind()),
+                voicing: params.voicing(),
+                controls: params.controls(),
+                tuning: params.tuning(),
+            };
+            let what = &preset.name;
+            assert_eq!(Some(saved.instrument.unwrap()), preset.instrument.or(Some(params.kind())), "{what}");
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-3 * b.abs().max(1.0);
+            let (v, w) = (&saved.voicing, &preset.voicing);
+            assert!(close(v.hammer_mass, w.hammer_mass) && close(v.damping, w.damping), "{what}: {v:?}");
+            assert!(close(v.tangent_depth, w.tangent_depth) && v.fretted == w.fretted, "{what}: {v:?}");
+            assert!(close(saved.controls.bebung, preset.controls.bebung), "{what}");
+            // The level parameter moves in steps of 0.1 dB.
+            let level_db = 20.0 * (saved.controls.output_gain / preset.controls.output_gain).log10();
+            assert!(level_db.abs() <= 0.05, "{what}: {level_db} dB");
+            assert!(close(saved.tuning.a4_hz, preset.tuning.a4_hz), "{what}");
+            assert_eq!(saved.tuning.temperament, preset.tuning.temperament, "{what}");
+            assert!(Preset::parse(&saved.to_json()).is_ok(), "{what}");
+        }
+    }
+
+    #[test]
+    fn a_malformed_scale_is_refused_in_one_line_and_the_tuning_stays() {
+        let dir = std::env::temp_dir().join(format!("struck-panel-scale-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let bad = dir.join("bad.scl");
+        std::fs::write(&bad, "! bad\nnot a scale\n3\n100.0\n3/0\n2/1\n").unwrap();
+        let err = load_scale(bad.to_str().unwrap(), "").unwrap_err();
+        assert!(err.contains("bad.scl") && !err.contains('\n'), "{err}");
+        let good = dir.join("good.scl");
+        std::fs::write(&good, "! good\nfive-limit\n2\n5/4\n2/1\n").unwrap();
+        assert_eq!(load_scale(good.to_str().unwrap(), "").unwrap().degrees_cents.len(), 2);
+        assert!(load_scale("", "").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -19,8 +19,8 @@
 //!    still yield statically ([`residual`]).
 //! 5. The output of a string is its bridge force, T y'(0) - EI y'''(0).
 //!
-//! 6. [`instrument`]: what every key of a piano, santoor, clavichord or
-//!    harpsichord is made of ([`instrument::KeyDesign`]), scaled by the player's voicing,
+//! 6. [`instrument`]: what every key of a piano, fortepiano, santoor, hammered
+//!    dulcimer, cimbalom, clavichord or harpsichord is made of ([`instrument::KeyDesign`]), scaled by the player's voicing,
 //!    and [`tuning`]: the frequency each key is tuned to (temperament, inharmonic
 //!    stretch, Scala scales).
 //! 7. [`synth`]: the real-time instrument. Keys own their strings, exciter and

@@ -47,7 +47,7 @@ pub struct Preset {
     pub instrument: Option<InstrumentKind>,
     /// Scale factors on the instrument's own values (1 = as built).
     pub voicing: Voicing,
-    /// Touch, polyphony, output gain, bend range.
+    /// Touch, polyphony, output gain, bend range, Bebung.
     pub controls: Controls,
     pub tuning: TuningSettings,
 }

@@ -58,8 +58,13 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
     let reader = wanted.clone();
     let (workshop, mut delivery) = Workshop::spawn(first, move || {
         let code = reader.load(Ordering::Relaxed);
-        let kind = InstrumentKind::ALL[(code % 4) as usize];
-        let voicing = Voicing { damping: 1.0 + (code / 4 % 3) as f64 * 0.5, ..Voicing::default() };
+        let kinds = InstrumentKind::ALL.len() as u64;
+        let kind = InstrumentKind::ALL[(code % kinds) as usize];
+        let voicing = Voicing {
+            damping: 1.0 + (code / kinds % 3) as f64 * 0.5,
+            fretted: code / kinds / 3 % 2 == 1,
+            ..Voicing::default()
+        };
         Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs, tuning: Default::default() })
     });
 
@@ -86,13 +91,15 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
                     Event::UnaCorda(rng.unit_f32()),
                     Event::AllNotesOff,
                     Event::Reset,
-                ][rng.below(4) as usize],
+                    Event::ModWheel(rng.unit_f32()),
+                    Event::Pressure { key, pressure: rng.unit_f32() },
+                ][rng.below(6) as usize],
             };
             events.push(TimedEvent::new(time, event));
         }
         events.sort_by_key(|e| e.time);
         if rng.below(40) == 0 {
-            wanted.store(rng.below(12), Ordering::Relaxed);
+            wanted.store(rng.below(6 * InstrumentKind::ALL.len() as u64), Ordering::Relaxed);
         }
         let controls = Controls {
             polyphony: 1 + rng.below(64) as usize,

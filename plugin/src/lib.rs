@@ -276,6 +276,7 @@ impl Performer {
         self.events.clear();
         if std::mem::take(&mut self.reset_pending) {
             self.events.push(TimedEvent::new(0, Event::Reset));
+            self.pressure.reset();
         }
         let mut start = 0;
         let mut last = 0;
@@ -329,8 +330,14 @@ impl Performer {
             }
             // The engine has no per-key choke: the key's damper falls (or it rings on
             // where it has none), as after a note-off.
-            NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => push(Event::NoteOff { key }),
-            NoteEvent::Choke { key: Key::Wildcard, .. } => push(Event::Reset),
+            NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => {
+                self.pressure.note_off(key);
+                push(Event::NoteOff { key })
+            }
+            NoteEvent::Choke { key: Key::Wildcard, .. } => {
+                self.pressure.reset();
+                push(Event::Reset)
+            }
             NoteEvent::MidiCC { cc, value, .. } => {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
@@ -446,7 +453,13 @@ mod tests {
         assert_eq!(translated(cc(0, 120, 0.0)), [Event::Reset]);
         assert_eq!(
             translated(cc(0, 121, 0.0)),
-            [Event::Sustain(0.0), Event::Sostenuto(0.0), Event::UnaCorda(0.0), Event::PitchBend(0.0)]
+            [
+                Event::Sustain(0.0),
+                Event::Sostenuto(0.0),
+                Event::UnaCorda(0.0),
+                Event::PitchBend(0.0),
+                Event::ModWheel(0.0)
+            ]
         );
         assert_eq!(translated(cc(0, 123, 0.0)), [Event::AllNotesOff]);
         assert_eq!(translated(cc(0, 1, 0.3)), [Event::ModWheel(0.3)]);
@@ -591,7 +604,7 @@ mod tests {
             // Between blocks, as a host's main thread would: automation and rebuilds.
             if rng.below(400) == 0 {
                 let mut w = wanted.lock().unwrap();
-                w.kind = InstrumentKind::ALL[rng.below(4) as usize];
+                w.kind = InstrumentKind::ALL[rng.below(InstrumentKind::ALL.len() as u64) as usize];
                 w.voicing.hammer_mass = 0.25 + 3.75 * rng.unit();
                 w.voicing.damping = 0.25 + 3.75 * rng.unit();
                 w.voicing.unison_detune = 4.0 * rng.unit();

@@ -23,7 +23,7 @@
 //! - note-on (velocity 0 is a note-off), note-off, CC64 sustain (value / 127,
 //!   continuous: half-pedalling), CC66 sostenuto and CC67 una corda (down at
 //!   64 and above), CC120 all sound off (a reset: silence within milliseconds),
-//!   CC121 reset all controllers (pedals up, pitch bend centred; RP-015), CC123
+//!   CC121 reset all controllers (pedals up, pitch bend centred, mod wheel at rest; RP-015), CC123
 //!   all notes off (and CC124 to CC127, which imply it), and pitch bend (14 bits,
 //!   centre 8192: 0 is -1, 16383 is +1), CC1 the mod wheel (mallet hardness),
 //!   polyphonic aftertouch (a key's pressure) and channel aftertouch (the
@@ -311,7 +311,7 @@ fn read_track(
 fn events_of(message: midly::MidiMessage) -> impl Iterator<Item = Event> {
     use midly::MidiMessage;
 
-    let mut out: [Option<Event>; 4] = [None; 4];
+    let mut out: [Option<Event>; 5] = [None; 5];
     match message {
         MidiMessage::NoteOn { key, vel } if vel.as_int() > 0 => {
             out[0] = Some(Event::NoteOn { key: key.as_int(), velocity: f32::from(vel.as_int()) / 127.0 });

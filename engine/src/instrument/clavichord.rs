@@ -184,14 +184,18 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         else {
             unreachable!("a clavichord key has a tangent")
         };
-        // The strings are tuned for the lower tangent pressed; the upper one sounds
-        // its semitone over the strings at rest, raised by its own press.
+        // The strings are tuned for the lower tangent pressed, and the upper tangent
+        // stands where its own press brings it to its semitone: over the strings
+        // at rest its interval is the semitone times the lower press's rise, less
+        // its own (which the synth adds as it presses).
         let interval = key_frequency_hz(upper) / key_frequency_hz(midi_key);
+        let (pressed_low, pressed_up) =
+            (tangent::stretched_pitch_ratio(s_low, d_low), tangent::stretched_pitch_ratio(s_up, d_up));
         design.shared.push(SharedKey {
             midi_key: upper,
             struck: design.struck.clone(),
             exciter: ExciterDesign::Tangent { displacement_m: d_up, stretch_per_m2: s_up },
-            pitch_ratio: interval / tangent::stretched_pitch_ratio(s_low, d_low),
+            pitch_ratio: interval * pressed_low / pressed_up,
         });
     }
     Some(design)
@@ -267,9 +271,18 @@ mod tests {
             assert_eq!(d.shared.len(), 1);
             let upper = &d.shared[0];
             assert_eq!((upper.midi_key, upper.struck.clone()), (high, d.struck.clone()));
-            // A semitone over the strings, less the lower press's stretch (a few cents at most).
-            let cents = 1200.0 * upper.pitch_ratio.log2();
-            assert!((cents - 100.0).abs() < 6.0 && cents < 100.0, "{low}: {cents} cents");
+            // Pressed, each tangent sounds its own key: the semitone over the strings at
+            // rest is the lower press's rise more, the upper press's less.
+            let (
+                ExciterDesign::Tangent { displacement_m: d0, stretch_per_m2: s0 },
+                ExciterDesign::Tangent { displacement_m: d1, stretch_per_m2: s1 },
+            ) = (d.exciter, upper.exciter)
+            else {
+                panic!("not tangents")
+            };
+            let sounding =
+                upper.pitch_ratio * tangent::stretched_pitch_ratio(s1, d1) / tangent::stretched_pitch_ratio(s0, d0);
+            assert!((1200.0 * sounding.log2() - 100.0).abs() < 1e-9, "{low}: {sounding}");
         }
         // 53 keys on 34 courses: 19 pairs share.
         assert_eq!(homes.len(), 34, "{homes:?}");

@@ -214,9 +214,9 @@ pub struct KeyDesign {
     pub struck: Range<usize>,
     /// Other keys played on these strings; they have no design of their own.
     pub shared: Vec<SharedKey>,
-    /// Re Y of the bridge point the strings share, s/kg: the bridge's motion under
-    /// the force of the strings outside `struck` drives those inside, and the other
-    /// way round (0: the strings are not coupled).
+    /// Re Y of the bridge point the strings share, s/kg: the bridge moves under
+    /// their summed force and carries every string's end with it (0: the strings
+    /// are not coupled).
     pub bridge_coupling_s_kg: f64,
     /// None: no damper (santoor, dulcimer).
     pub damper: Option<DamperDesign>,

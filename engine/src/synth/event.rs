@@ -104,8 +104,8 @@ impl Event {
     /// What a MIDI controller change means (value 0..=1): up to four events, for
     /// the plugin and the MIDI-file renderer alike. CC 124..=127 (mode changes)
     /// imply all notes off, as MIDI 1.0 says.
-    pub fn from_controller(controller: u8, value: f32) -> [Option<Event>; 4] {
-        let one = |e| [Some(e), None, None, None];
+    pub fn from_controller(controller: u8, value: f32) -> [Option<Event>; 5] {
+        let one = |e| [Some(e), None, None, None, None];
         match controller {
             cc::MOD_WHEEL => one(Event::ModWheel(value)),
             cc::SUSTAIN => one(Event::Sustain(value)),
@@ -117,9 +117,10 @@ impl Event {
                 Some(Event::Sostenuto(0.0)),
                 Some(Event::UnaCorda(0.0)),
                 Some(Event::PitchBend(0.0)),
+                Some(Event::ModWheel(0.0)),
             ],
             cc::ALL_NOTES_OFF..=127 => one(Event::AllNotesOff),
-            _ => [None; 4],
+            _ => [None; 5],
         }
     }
 
@@ -152,11 +153,11 @@ mod tests {
 
     #[test]
     fn controllers_and_the_wheel() {
-        assert_eq!(Event::from_controller(64, 0.5), [Some(Event::Sustain(0.5)), None, None, None]);
-        assert_eq!(Event::from_controller(121, 1.0).iter().flatten().count(), 4);
+        assert_eq!(Event::from_controller(64, 0.5), [Some(Event::Sustain(0.5)), None, None, None, None]);
+        assert_eq!(Event::from_controller(121, 1.0).iter().flatten().count(), 5);
         assert_eq!(Event::from_controller(126, 0.0)[0], Some(Event::AllNotesOff));
-        assert_eq!(Event::from_controller(1, 1.0), [Some(Event::ModWheel(1.0)), None, None, None]);
-        assert_eq!(Event::from_controller(2, 1.0), [None; 4]);
+        assert_eq!(Event::from_controller(1, 1.0), [Some(Event::ModWheel(1.0)), None, None, None, None]);
+        assert_eq!(Event::from_controller(2, 1.0), [None; 5]);
         assert_eq!(Event::pitch_wheel(0), -1.0);
         assert_eq!(Event::pitch_wheel(8192), 0.0);
         assert_eq!(Event::pitch_wheel(16383), 1.0);

@@ -51,10 +51,12 @@ pub(super) struct Key {
     pub strings: Vec<StruckString>,
     notes: Vec<Note>,
     damper: Option<DamperDesign>,
-    /// Re Y of the shared bridge point (0: strings not coupled), and the force the
-    /// strings inside and outside the first note's `struck` put on it last sample.
+    /// Re Y of the shared bridge point (0: strings not coupled), and the force each
+    /// string put on it last sample.
     bridge_coupling_s_kg: f64,
-    bridge_force_n: [f64; 2],
+    bridge_force_n: Vec<f64>,
+    /// Scratch for this sample's forces.
+    force_now_n: Vec<f64>,
     pub gain_per_n: f64,
     /// Constant-power pan gains.
     pub pan_left: f64,
@@ -122,7 +124,8 @@ impl Key {
             notes,
             damper: design.damper,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
-            bridge_force_n: [0.0; 2],
+            bridge_force_n: vec![0.0; design.strings.len()],
+            force_now_n: vec![0.0; design.strings.len()],
             gain_per_n: design.gain_per_n,
             pan_left: angle.cos() * std::f64::consts::SQRT_2,
             pan_right: angle.sin() * std::f64::consts::SQRT_2,
@@ -185,11 +188,12 @@ impl Key {
             // sound, and waits there in case the higher key comes up first.
             let above = self.held != 0 && self.notes[self.speaking].pitch_ratio > played.pitch_ratio;
             self.held |= bit;
-            self.pressure = 0.0;
+            self.sounded |= bit;
             if above {
                 return;
             }
             self.speaking = note;
+            self.pressure = 0.0;
         }
         self.held |= bit;
         self.sounded |= bit;
@@ -350,7 +354,7 @@ impl Key {
         self.speaking = 0;
         self.pressure = 0.0;
         self.pressure_now = 0.0;
-        self.bridge_force_n = [0.0; 2];
+        self.bridge_force_n.fill(0.0);
         self.fade = 1.0;
         self.fade_step = 0.0;
         self.level = 0.0;
@@ -377,29 +381,31 @@ impl Key {
         }
     }
 
-    /// [`Self::render`] for a course whose two groups of strings (inside and outside
-    /// the first note's `struck`) share a bridge point: each sample the bridge
-    /// moves under one group's force, at Re Y times it, and drives the other
-    /// group's ends. Each string's own push on the bridge is already among its
-    /// losses, so only the other group's force moves its end here.
+    /// [`Self::render`] for a course whose strings share a bridge point: each
+    /// sample the bridge moves under the strings' force, at Re Y times it, and
+    /// carries every string's end with it. A string's own push on the bridge is
+    /// already among its losses, so each string's end is moved by the others'
+    /// force alone: with its own share that makes the whole coupling Y times the
+    /// square of the summed force, which only ever takes energy out.
     fn render_coupled(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
-        let inner = self.notes[0].struck.clone();
         let y = self.bridge_coupling_s_kg;
         for (t, o) in out.iter_mut().enumerate() {
-            let mut force = [0.0; 2];
+            let (mut total, mut total_before) = (0.0, 0.0);
             for (i, s) in self.strings.iter_mut().enumerate() {
                 let tick = s.tick();
-                force[usize::from(!inner.contains(&i))] += tick.bridge_force_n;
+                self.force_now_n[i] = tick.bridge_force_n;
+                total += tick.bridge_force_n;
+                total_before += self.bridge_force_n[i];
                 if let Some(c) = contact.as_deref_mut() {
                     c[t] += tick.contact_force_n as f32;
                 }
             }
-            *o += force[0] + force[1];
-            let dv = [y * (force[1] - self.bridge_force_n[1]), y * (force[0] - self.bridge_force_n[0])];
+            *o += total;
             for (i, s) in self.strings.iter_mut().enumerate() {
-                s.move_bridge(dv[usize::from(!inner.contains(&i))]);
+                let own_change = self.force_now_n[i] - self.bridge_force_n[i];
+                s.move_bridge(y * (total - total_before - own_change));
             }
-            self.bridge_force_n = force;
+            std::mem::swap(&mut self.bridge_force_n, &mut self.force_now_n);
         }
     }
 
@@ -408,14 +414,18 @@ impl Key {
         for (new, old) in self.strings.iter_mut().zip(old.strings.iter_mut()) {
             new.take_motion_from(old);
         }
+        // The same courses (Synth::install checks the routes), so the notes match.
+        let notes = if self.notes.len() >= 32 { u32::MAX } else { (1u32 << self.notes.len()) - 1 };
         self.active = old.active;
-        self.held = old.held;
-        self.sounded = std::mem::take(&mut old.sounded);
+        self.held = old.held & notes;
+        self.sounded = std::mem::take(&mut old.sounded) & notes;
         self.sostenuto = old.sostenuto;
         self.speaking = old.speaking.min(self.notes.len() - 1);
         self.pressure = old.pressure;
         self.pressure_now = old.pressure_now;
-        self.bridge_force_n = old.bridge_force_n;
+        if self.bridge_force_n.len() == old.bridge_force_n.len() {
+            self.bridge_force_n.copy_from_slice(&old.bridge_force_n);
+        }
         self.damper_now = old.damper_now;
         self.fade = old.fade;
         self.fade_step = old.fade_step;

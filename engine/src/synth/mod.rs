@@ -150,6 +150,7 @@ impl Instrument {
         let mut route = [None; 128];
         for design in designs {
             let midi_key = design.midi_key;
+            let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
             let design = tuned(design, &frequencies_hz);
             {
                 match Key::build(design, fs) {
@@ -161,6 +162,9 @@ impl Instrument {
                     }
                     // At a very low sample rate the top keys have no partial below Nyquist: they stay silent.
                     Err(StringError::NoModes { .. }) => {}
+                    // A tuning can ask a string for a pitch it cannot reach (a Scala
+                    // file's key hundreds of octaves off): that key stays silent.
+                    Err(_) if moved => {}
                     Err(source) => return Err(BuildError::String { kind: settings.kind, key: midi_key, source }),
                 }
             }
@@ -310,7 +314,9 @@ impl Synth {
     /// the replaced instrument waits in [`Self::take_retired`].
     pub fn install(&mut self, mut instrument: Box<Instrument>) {
         let bend = self.bend;
-        if instrument.settings.kind == self.current.settings.kind {
+        // Ringing keys carry over when every MIDI key still plays the same course
+        // (a fretted clavichord made unfretted does not).
+        if instrument.settings.kind == self.current.settings.kind && instrument.route == self.current.route {
             for (new, old) in instrument.keys.iter_mut().zip(self.current.keys.iter_mut()) {
                 if let (Some(new), Some(old)) = (new, old)
                     && old.active
@@ -408,12 +414,13 @@ impl Synth {
                 self.sostenuto = down;
             }
             Event::UnaCorda(v) => self.una_corda = v >= 0.5,
-            Event::ModWheel(v) => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
-            Event::Pressure { key, pressure } => {
+            Event::ModWheel(v) if v.is_finite() => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
+            Event::Pressure { key, pressure } if pressure.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.pressure = (pressure as f64).clamp(0.0, 1.0);
                 }
             }
+            Event::ModWheel(_) | Event::Pressure { .. } => {}
             Event::PitchBend(v) => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
@@ -562,7 +569,7 @@ pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> Instrument
 /// string turned to its key's frequency, as a tuner turns the pins. Strings a
 /// shared key strikes apart from the key's own (the other side of a dulcimer
 /// course) follow that key; a shared key on the same strings (a fretted
-/// clavichord's tangent) keeps its interval to the tuned course.
+/// clavichord's tangent) is moved to its own key's tuned pitch.
 fn tuned(mut design: KeyDesign, frequencies_hz: &[f64; 128]) -> KeyDesign {
     let ratio = |k: u8| frequencies_hz[k as usize] / key_frequency_hz(k);
     let home = ratio(design.midi_key);

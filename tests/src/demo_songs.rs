@@ -448,8 +448,9 @@ fn cimbalom_csardas() -> Vec<u8> {
     }
     // Final chord with the pedal down, left to ring.
     m.track.cc(ticks(47.5), 64, 127);
-    for name in ["A2", "E3", "A3", "C4", "E4", "A4"] {
-        m.strike(48.0, name, 0.7);
+    // Final chord, spread from the bass up as a cimbalom player rolls it.
+    for (i, name) in ["A2", "E3", "A3", "C4", "E4", "A4"].iter().enumerate() {
+        m.strike(48.0 + 0.06 * i as f64, name, 0.45);
     }
     m.track.cc(ticks(52.0), 64, 0);
     smf_bytes(Format::SingleTrack, metrical(), &[m.track])

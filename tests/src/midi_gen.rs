@@ -79,6 +79,11 @@ impl TrackBuilder {
         self.midi(tick, 0, MidiMessage::Controller { controller: u7::new(controller), value: u7::new(value) })
     }
 
+    /// Polyphonic pressure (aftertouch) on `key`, channel 1, 0..=127.
+    pub fn poly_pressure(&mut self, tick: u64, key: u8, value: u8) -> &mut Self {
+        self.midi(tick, 0, MidiMessage::Aftertouch { key: u7::new(key), vel: u7::new(value) })
+    }
+
     /// Channel pressure (aftertouch) on channel 1, 0..=127.
     pub fn pressure(&mut self, tick: u64, value: u8) -> &mut Self {
         self.midi(tick, 0, MidiMessage::ChannelAftertouch { vel: u7::new(value) })
@@ -151,6 +156,13 @@ pub fn test_files() -> Vec<(&'static str, Vec<u8>)> {
 
     // The same with the wheel fully up from the start.
     files.push(("a4-bend-up.mid", single(TrackBuilder::new().bend(0, 16_383).note(at_120(0.5), at_120(1.0), a4, 100))));
+
+    // D2 held from 0.1 s to 3.1 s, pressed harder from 1.5 s: by channel pressure,
+    // and by polyphonic pressure (Bebung on a clavichord).
+    let d2 = key("D2");
+    let held = TrackBuilder::new().note(at_120(0.1), at_120(3.0), d2, 90).clone();
+    files.push(("d2-channel-pressure.mid", single(held.clone().pressure(at_120(1.5), 127))));
+    files.push(("d2-poly-pressure.mid", single(held.clone().poly_pressure(at_120(1.5), d2, 127))));
 
     // C4 from 0.1 s to 0.5 s, with and without the sustain pedal held throughout.
     let dry = TrackBuilder::new().note(at_120(0.1), at_120(0.4), c4, 100).clone();

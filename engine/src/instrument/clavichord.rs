@@ -175,15 +175,8 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         // The upper key's tangent meets the same strings nearer the bridge: a
         // semitone higher, pressed and stretched as that key's own would be.
         let upper = midi_key + 1;
-        let own = course(voicing, upper, max_frequency_hz);
-        let low = design.exciter;
-        let (
-            ExciterDesign::Tangent { stretch_per_m2: s_low, displacement_m: d_low },
-            ExciterDesign::Tangent { stretch_per_m2: s_up, displacement_m: d_up },
-        ) = (low, own.exciter)
-        else {
-            unreachable!("a clavichord key has a tangent")
-        };
+        let (d_low, s_low) = tangent_of(voicing, midi_key);
+        let (d_up, s_up) = tangent_of(voicing, upper);
         // The strings are tuned for the lower tangent pressed, and the upper tangent
         // stands where its own press brings it to its semitone: over the strings
         // at rest its interval is the semitone times the lower press's rise, less
@@ -199,6 +192,13 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         });
     }
     Some(design)
+}
+
+/// The tangent of `midi_key` with the voicing's depth: where it comes to rest, m,
+/// and the stretch it makes, per m^2 ([`ExciterDesign::Tangent`]).
+fn tangent_of(voicing: &Voicing, midi_key: u8) -> (f64, f64) {
+    let depth = voicing.tangent_depth.clamp(TANGENT_DEPTH_RANGE.0, TANGENT_DEPTH_RANGE.1);
+    (built_displacement_m(LENGTH_M.log_extended(midi_key)) * depth, stretch_per_m2(midi_key))
 }
 
 /// One key with its own pair of strings. The strings are tuned, as a clavichord
@@ -224,7 +224,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         .collect();
 
     let built_m = built_displacement_m(length_m);
-    let depth = voicing.tangent_depth.clamp(TANGENT_DEPTH_RANGE.0, TANGENT_DEPTH_RANGE.1);
+    let (displacement_m, stretch) = tangent_of(voicing, midi_key);
     let f1_hz = key_frequency_hz(midi_key);
     let mu = wire_mass_per_length_kg_m(diameter_m, BRASS_DENSITY_KG_M3);
     let tension_n = flexible_tension_n(length_m, mu, f1_hz);
@@ -243,7 +243,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         struck: 0..STRINGS,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
-        exciter: ExciterDesign::Tangent { displacement_m: built_m * depth, stretch_per_m2: stretch_per_m2(midi_key) },
+        exciter: ExciterDesign::Tangent { displacement_m, stretch_per_m2: stretch },
         damper: Some(damper(damped_60_db_s, DAMPER_RATE_PER_HZ_S, f1_hz, DAMPER_TRAVEL_S)),
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),

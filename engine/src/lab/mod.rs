@@ -2,9 +2,13 @@
 //! once) is parsed and checked ([`case`]), simulated on the same
 //! [`crate::struck_string::StruckString`] the instrument plays, and measured
 //! ([`run`]): contacts at sub-step resolution, bridge-force level and partials.
+//! [`seed`] holds the seed's own experiments as cases, and [`film`] records a
+//! strike's string shape for the animations.
 
 pub mod case;
+pub mod film;
 pub mod run;
+pub mod seed;
 
 pub use case::{CaseError, ExciterSpec, StrikeCase, parse_case};
 pub use run::{LabRun, Metrics, Trace, run};

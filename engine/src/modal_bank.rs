@@ -338,6 +338,25 @@ impl ModalBank {
         lane_sum(&acc)
     }
 
+    /// An upper bound on the magnitude of the observation through `drive` (the
+    /// string's displacement at an exciter, m) that this bank can ever produce
+    /// freely from now on: sum_n |observe_n| |zeta_n|, since free motion only
+    /// shrinks each |zeta_n| and the observation is sum_n observe_n Re(zeta_n).
+    ///
+    /// Allocates: no.
+    pub fn observe_bound(&self, drive: &DriveTable) -> f64 {
+        let mut acc = [0.0; LANES];
+        let (re, _) = self.re.as_chunks::<LANES>();
+        let (im, _) = self.im.as_chunks::<LANES>();
+        let (c, _) = drive.observe.as_chunks::<LANES>();
+        for ((r, i), c) in re.iter().zip(im).zip(c) {
+            for l in 0..LANES {
+                acc[l] += c[l].abs() * r[l].hypot(i[l]);
+            }
+        }
+        lane_sum(&acc)
+    }
+
     /// Kinetic plus potential energy of the modes, J.
     pub fn energy_j(&self) -> f64 {
         (0..self.len)

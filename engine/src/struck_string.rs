@@ -449,6 +449,30 @@ impl StruckString {
             && h.compression_m < -gap_m
     }
 
+    /// Whether a hammer in play can never touch the string again if both are left
+    /// to move freely: it is past its contact (no force for the sub-step hold),
+    /// flying away, and already further back than the string at the strike point
+    /// can ever reach. The reach is bounded by [`ModalBank::observe_bound`] over the
+    /// kept modes plus |r| for the omitted modes' residual, and free motion only
+    /// shrinks both; the hammer moves away at a constant speed. So no bounce that
+    /// would still come is ever cut off (unlike [`Self::hammer_gone`], which is a
+    /// heuristic gap and delay). The bound sums every mode's amplitude, so it is
+    /// reached later than the hammer is really clear (typically a few milliseconds
+    /// after the last contact, longer for a slow rebound).
+    ///
+    /// Allocates: no. One pass over the modes.
+    pub fn hammer_clear(&self) -> bool {
+        let (Exciter::Hammer, Some(tables)) = (self.exciter, self.hammer_tables.as_ref()) else {
+            return false;
+        };
+        let h = &self.hammer;
+        if h.substepping || !(h.hammer.velocity_m_s < 0.0) || !(h.compression_m < 0.0) {
+            return false;
+        }
+        let reach_m = self.bank.observe_bound(&tables.audio) + h.residual_m.abs();
+        h.hammer.position_m + reach_m < 0.0
+    }
+
     /// Every mode to rest, the exciter gone. Allocates: no.
     pub fn silence(&mut self) {
         self.exciter = Exciter::None;

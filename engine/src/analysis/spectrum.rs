@@ -1,6 +1,7 @@
 //! Spectra of a strike: partial levels, the spectral centroid, and partial
 //! tracking (frequency and decay rate of one partial).
 
+use std::cell::RefCell;
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
@@ -8,6 +9,13 @@ use realfft::RealFftPlanner;
 
 /// Levels below this are reported at it (an exact zero has no decibel value), dB re 1 N.
 pub const LEVEL_FLOOR_DB: f64 = -400.0;
+
+thread_local! {
+    /// Each thread keeps its FFT plans: planning (the twiddle factors) costs more
+    /// than the transform itself, and the lab's sweeps ask for the same lengths
+    /// thousands of times.
+    static PLANNER: RefCell<RealFftPlanner<f64>> = RefCell::new(RealFftPlanner::new());
+}
 
 /// Magnitude spectrum |X(f)| of `signal` (bins 0..=N/2), multiplied by `window` if given.
 pub fn magnitude_spectrum(signal: &[f64], window: Option<&[f64]>) -> Vec<f64> {
@@ -18,7 +26,7 @@ pub fn magnitude_spectrum(signal: &[f64], window: Option<&[f64]>) -> Vec<f64> {
     if input.is_empty() {
         return Vec::new();
     }
-    let fft = RealFftPlanner::<f64>::new().plan_fft_forward(input.len());
+    let fft = PLANNER.with_borrow_mut(|planner| planner.plan_fft_forward(input.len()));
     let mut spectrum = fft.make_output_vec();
     fft.process(&mut input, &mut spectrum).expect("buffer sizes come from the plan");
     spectrum.iter().map(|c| c.norm()).collect()
@@ -109,8 +117,17 @@ pub fn partial_levels_db(signal: &[f64], sample_rate_hz: f64, window_s: f64, pre
 /// Centroid of the magnitude spectrum, sum f |X(f)| / sum |X(f)| over 0..fs/2;
 /// `None` for a signal that is zero throughout.
 pub fn spectral_centroid_hz(signal: &[f64], sample_rate_hz: f64) -> Option<f64> {
-    let spectrum = magnitude_spectrum(signal, None);
-    let bin_hz = sample_rate_hz / signal.len() as f64;
+    spectral_centroid_padded_hz(signal, sample_rate_hz, signal.len())
+}
+
+/// [`spectral_centroid_hz`] of `signal` followed by zeros up to `length` samples
+/// (no padding when `length` is shorter than the signal): the same centroid as
+/// of a longer record whose tail is silent, read on bins fs / length apart.
+pub fn spectral_centroid_padded_hz(signal: &[f64], sample_rate_hz: f64, length: usize) -> Option<f64> {
+    let mut padded = signal.to_vec();
+    padded.resize(length.max(signal.len()), 0.0);
+    let spectrum = magnitude_spectrum(&padded, None);
+    let bin_hz = sample_rate_hz / padded.len() as f64;
     let total: f64 = spectrum.iter().sum();
     if !(total > 0.0) {
         return None;

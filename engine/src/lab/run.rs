@@ -102,7 +102,7 @@ pub struct LabRun {
 /// Intervals of nonzero contact force, with start and end interpolated between
 /// (sub)steps on the felt's compression.
 #[derive(Default)]
-struct ContactTracker {
+pub(crate) struct ContactTracker {
     previous: (f64, f64),
     start_s: Option<f64>,
     raw: Vec<Contact>,
@@ -115,7 +115,8 @@ impl ContactTracker {
         if compression_m == c0 { t0 } else { t0 + (t_s - t0) * (-c0 / (compression_m - c0)).clamp(0.0, 1.0) }
     }
 
-    fn finish(mut self, end_s: f64) -> (Vec<Contact>, Option<(f64, f64)>) {
+    /// The raw contacts (one still open is closed at `end_s`) and the peak (force N, time s).
+    pub(crate) fn finish(mut self, end_s: f64) -> (Vec<Contact>, Option<(f64, f64)>) {
         if let Some(start_s) = self.start_s.take() {
             self.raw.push(Contact { start_s, end_s });
         }

@@ -11,6 +11,7 @@
 
 pub mod editor;
 pub mod params;
+pub mod plot;
 pub mod standalone;
 
 use std::num::NonZeroU32;

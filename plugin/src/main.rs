@@ -1,12 +1,21 @@
 //! `struck`: the command-line face of Struck.
 //!
 //! `struck strike` is the engine's lab bench (one string excited once, every
-//! number written out); `struck bench` measures the modal bank's speed.
+//! number written out); `struck chart` and `struck animate` draw the seed's
+//! design charts and animations; `struck demo` redoes the seed's whole lab;
+//! `struck render` plays a MIDI file; `struck bench` measures the speed.
 
+mod animate_cmd;
 mod bench_cmd;
+mod chart_cmd;
+mod demo_cmd;
+mod demo_page;
+mod figures;
+mod hammer_figures;
 mod midi_file;
 mod output;
 mod render_cmd;
+mod seed_sounds;
 mod strike_cmd;
 
 use std::path::PathBuf;
@@ -69,6 +78,25 @@ enum Command {
                             status 2 and one line naming it; no WAV is written then, and an \
                             existing one is kept.")]
     Render(render_cmd::RenderArgs),
+    /// Draw design charts as PNG + CSV: hammer, universal, stringing, strike, clavichord.
+    #[command(long_about = "Draw the lab's charts, each a PNG with the numbers behind it as a CSV, \
+                            into --out DIR. `hammer`: a grid of hammer mass x contact stiffness for \
+                            any key of any instrument (or a strike case), shaded by contact time, \
+                            number of contacts and spectral centroid (Figs. 15-17 of Euphonics \
+                            12.2). `universal`: the normalised chart with the piano's Cs marked \
+                            (Figs. 18-22). `stringing`: mass, tension and impedance per key \
+                            (Figs. 8-10). `strike`: contact and bridge force and their spectra for \
+                            strike cases. `clavichord`: pitch rise, tangent motion, Q (Figs. 29-31). \
+                            Grids run on every core and report how long they took.")]
+    Chart(chart_cmd::ChartArgs),
+    /// Animate a strike case as a GIF: the string's shape, the hammer and the struck point.
+    Animate(animate_cmd::AnimateArgs),
+    /// Redo the seed's lab: Sounds 1-12, every figure, the animations and an index.html.
+    #[command(long_about = "Render Euphonics 12.2's Sounds 1-12 as WAVs, every figure as a PNG \
+                            with its CSV, the animations as GIFs, and DIR/index.html showing them \
+                            with captions and audio players in the seed's order. Offline, no \
+                            sound card; --quick uses coarser hammer charts.")]
+    Demo(demo_cmd::DemoArgs),
 }
 
 #[derive(clap::Args)]
@@ -129,6 +157,9 @@ fn main() -> ExitCode {
         Command::Strike(args) => strike_cmd::run(&args).map_err(|e| ("struck strike", e)),
         Command::Bench(args) => bench_cmd::run(&args).map_err(|e| ("struck bench", e)),
         Command::Render(args) => render_cmd::run(&args).map_err(|e| ("struck render", e)),
+        Command::Chart(args) => chart_cmd::run(&args).map_err(|e| ("struck chart", e)),
+        Command::Animate(args) => animate_cmd::run(&args).map_err(|e| ("struck animate", e)),
+        Command::Demo(args) => demo_cmd::run(&args).map_err(|e| ("struck demo", e)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -69,6 +69,23 @@ impl Staged {
         })
     }
 
+    /// Write a mono 16-bit PCM WAV (what every browser's player takes), clipping at full scale.
+    pub fn write_wav16(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
+        let spec = hound::WavSpec {
+            channels: 1,
+            sample_rate: sample_rate_hz.round() as u32,
+            bits_per_sample: 16,
+            sample_format: hound::SampleFormat::Int,
+        };
+        self.stage(path, |temporary| {
+            let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
+            for &s in samples {
+                w.write_sample((s.clamp(-1.0, 1.0) * i16::MAX as f32).round() as i16).map_err(io::Error::other)?;
+            }
+            w.finalize().map_err(io::Error::other)
+        })
+    }
+
     /// Put every staged file in place.
     pub fn commit(mut self) -> Result<(), Failure> {
         let files = std::mem::take(&mut self.files);

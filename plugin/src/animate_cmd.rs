@@ -1,0 +1,89 @@
+//! `struck animate CASE.json --out FILE.gif`: the string's shape over time, the
+//! vertical scale exaggerated, the hammer as a red star and the struck point as
+//! a green star, until the hammer is thrown clear (the seed's Figs. 2, 23-25;
+//! a tangent or a pluck for a few periods, as Fig. 32).
+
+use std::path::{Path, PathBuf};
+
+use struck_engine::lab::film::{self, SHAPE_POINTS};
+use struck_engine::lab::{ExciterSpec, StrikeCase};
+
+use crate::Failure;
+use crate::chart_cmd::read_case;
+use struck::plot::{Animation, AnimationFrame};
+
+/// Most frames accepted.
+pub const MAX_FRAMES: usize = 1000;
+/// How long an animation plays, s (whatever the time it shows).
+const PLAY_S: f64 = 6.0;
+
+#[derive(clap::Args)]
+pub struct AnimateArgs {
+    /// The strike case (JSON).
+    pub case: PathBuf,
+    /// The GIF to write.
+    #[arg(long, value_name = "FILE.gif")]
+    pub out: PathBuf,
+    /// Change one field of the case first, e.g. --set exciter.mass_kg=0.003 (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub sets: Vec<String>,
+    /// Frames in the animation.
+    #[arg(long, default_value_t = 120, value_name = "N")]
+    pub frames: usize,
+    /// For a tangent or a pluck: how many periods of the string to show.
+    #[arg(long, default_value_t = 2.0, value_name = "P")]
+    pub periods: f64,
+}
+
+/// How a film is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FilmOptions {
+    pub frames: usize,
+}
+
+/// Film `case` and draw it as a GIF at `gif`.
+pub fn draw_film(
+    case: &StrikeCase,
+    periods: f64,
+    title: &str,
+    options: &FilmOptions,
+    gif: &Path,
+) -> anyhow::Result<()> {
+    let film = film::film(case, options.frames, periods);
+    let xs: Vec<f64> = (0..SHAPE_POINTS).map(|j| film.length_m * j as f64 / (SHAPE_POINTS - 1) as f64).collect();
+    let is_tangent = matches!(case.exciter, ExciterSpec::Tangent(_));
+    let frames: Vec<AnimationFrame> = film
+        .frames
+        .iter()
+        .map(|f| AnimationFrame {
+            time_s: f.time_s,
+            string_x_m: xs.clone(),
+            string_y_m: f.shape_m.clone(),
+            hammer: if is_tangent { None } else { f.exciter_m.map(|y| (film.exciter_x_m, y)) },
+            struck_point: Some((film.exciter_x_m, f.struck_point_m)),
+        })
+        .collect();
+    let count = frames.len().max(1) as f64;
+    let animation = Animation {
+        frame_delay_ms: ((PLAY_S * 1e3 / count).round() as u32).clamp(20, 500),
+        y_label: "displacement (mm, exaggerated)".into(),
+        ..Animation::new(title, frames)
+    };
+    animation.draw_gif(gif)?;
+    Ok(())
+}
+
+pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
+    let case = read_case(&args.case, &args.sets)?;
+    if !(2..=MAX_FRAMES).contains(&args.frames) {
+        return Err(Failure::bad_input(format!("--frames: must lie between 2 and {MAX_FRAMES} (got {})", args.frames)));
+    }
+    if !(args.periods.is_finite() && args.periods > 0.0 && args.periods <= 100.0) {
+        return Err(Failure::bad_input(format!("--periods: must lie above 0 and at most 100 (got {})", args.periods)));
+    }
+    let title = case.name.clone().unwrap_or_else(|| args.case.display().to_string());
+    draw_film(&case, args.periods, &title, &FilmOptions { frames: args.frames }, &args.out)
+        .map_err(|e| Failure::failed(format!("{e:#}")))?;
+    println!("wrote {}", args.out.display());
+    Ok(())
+}

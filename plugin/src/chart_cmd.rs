@@ -1,0 +1,223 @@
+//! `struck chart ...`: the lab's design charts as PNGs with the numbers behind
+//! them as CSV (one pair per chart, in `--out DIR`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, Subcommand};
+use struck_engine::instrument::InstrumentKind;
+use struck_engine::lab::{self, StrikeCase, seed};
+
+use crate::Failure;
+use crate::figures::{self, Drawn};
+use crate::hammer_figures::{self, GridOptions};
+
+/// Largest grid side accepted.
+pub const MAX_GRID: usize = 512;
+
+#[derive(Args)]
+pub struct ChartArgs {
+    #[command(subcommand)]
+    pub chart: Chart,
+    /// Directory for the PNGs and CSVs (created if missing).
+    #[arg(long, value_name = "DIR", global = true, default_value = "charts")]
+    pub out: PathBuf,
+}
+
+#[derive(Subcommand)]
+pub enum Chart {
+    /// Hammer design charts (Figs. 15-17 of the seed): a grid of hammer mass x
+    /// contact stiffness K, coloured by total contact time, number of contacts
+    /// (gaps under 50 us merged) and spectral centroid of the contact force.
+    Hammer(HammerArgs),
+    /// The universal chart (Figs. 18-22): normalised mass and stiffness, contact
+    /// time in string periods, with the piano's eight Cs marked.
+    Universal(UniversalArgs),
+    /// Stringing charts (Figs. 8-10): mass per length, tension and total
+    /// impedance per key, breaks between string counts marked.
+    Stringing(StringingArgs),
+    /// Strike charts: contact and bridge force against time and their spectra,
+    /// for one or more strike cases on one plot.
+    Strike(StrikeChartArgs),
+    /// Clavichord charts (Figs. 29-31): pitch rise against tangent depth,
+    /// tangent motions, Q with and without the leak past the tangent.
+    Clavichord,
+}
+
+#[derive(Args)]
+pub struct HammerArgs {
+    /// Instrument whose key is struck (any with hammers or mallets).
+    #[arg(long, default_value = "piano", value_name = "NAME")]
+    pub instrument: String,
+    /// The key: a note name (C4, F#2, Bb5) or a MIDI number.
+    #[arg(long, default_value = "C4", value_name = "NOTE")]
+    pub key: String,
+    /// A strike case file (JSON) with a hammer, instead of --instrument/--key.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["instrument", "key"])]
+    pub case: Option<PathBuf>,
+    /// Hammer speed, m/s [default: 2.5, forte; a case file's own speed]
+    #[arg(long, value_name = "M/S")]
+    pub speed: Option<f64>,
+    #[command(flatten)]
+    pub grid: GridArgs,
+}
+
+#[derive(Args)]
+pub struct GridArgs {
+    /// Grid points along each axis.
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    pub grid: usize,
+    /// Logarithmically spaced masses (the universal chart's layout) instead of
+    /// linear ones from near zero to twice the nominal hammer.
+    #[arg(long)]
+    pub log_mass: bool,
+}
+
+#[derive(Args)]
+pub struct UniversalArgs {
+    /// Grid points along each axis.
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    pub grid: usize,
+}
+
+#[derive(Args)]
+pub struct StringingArgs {
+    #[arg(long, default_value = "piano", value_name = "NAME")]
+    pub instrument: String,
+}
+
+#[derive(Args)]
+pub struct StrikeChartArgs {
+    /// Strike case files (JSON), drawn together.
+    #[arg(required = true)]
+    pub cases: Vec<PathBuf>,
+    /// Change a field of every case, e.g. --set exciter.speed_m_s=2.5 (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub sets: Vec<String>,
+    /// Run each case at each of these hammer or tangent speeds (m/s, comma-separated).
+    #[arg(long, value_name = "V,V,...", value_delimiter = ',')]
+    pub speeds: Vec<f64>,
+    /// Divide the contact force by the speed (the seed's Fig. 13).
+    #[arg(long)]
+    pub per_speed: bool,
+}
+
+fn parse_kind(name: &str) -> Result<InstrumentKind, Failure> {
+    name.parse::<InstrumentKind>().map_err(|e| Failure::bad_input(format!("--instrument: {e}")))
+}
+
+/// Read and check a case file, with `--set` edits.
+pub fn read_case(path: &Path, sets: &[String]) -> Result<StrikeCase, Failure> {
+    let shown = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
+    lab::parse_case(&text, sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))
+}
+
+fn check_grid(grid: usize) -> Result<(), Failure> {
+    if (2..=MAX_GRID).contains(&grid) {
+        Ok(())
+    } else {
+        Err(Failure::bad_input(format!("--grid: must lie between 2 and {MAX_GRID} (got {grid})")))
+    }
+}
+
+fn check_speed(speed: f64) -> Result<f64, Failure> {
+    if speed.is_finite() && speed > 0.0 && speed <= 100.0 {
+        Ok(speed)
+    } else {
+        Err(Failure::bad_input(format!("--speed: must be a speed above 0 and at most 100 m/s (got {speed})")))
+    }
+}
+
+/// The hammer case a `struck chart hammer` asks for.
+pub fn hammer_case(args: &HammerArgs) -> Result<StrikeCase, Failure> {
+    let mut case = match &args.case {
+        Some(path) => read_case(path, &[])?,
+        None => {
+            let kind = parse_kind(&args.instrument)?;
+            let key = seed::parse_note(&args.key).ok_or_else(|| {
+                Failure::bad_input(format!("--key: '{}' is not a note (C4, F#2, Bb5) or MIDI number", args.key))
+            })?;
+            let speed = check_speed(args.speed.unwrap_or(seed::CHART_SPEED_M_S))?;
+            seed::key_case(kind, key, speed, figures::FIGURE_RATE_HZ, 0.2).ok_or_else(|| {
+                Failure::bad_input(format!(
+                    "--key: the {} has no strings of its own at {} (range {} to {})",
+                    kind.name(),
+                    seed::note_name(key),
+                    seed::note_name(*kind.key_range().start()),
+                    seed::note_name(*kind.key_range().end())
+                ))
+            })?
+        }
+    };
+    match &mut case.exciter {
+        lab::ExciterSpec::Hammer(h) => {
+            if let Some(speed) = args.speed {
+                h.speed_m_s = check_speed(speed)?;
+            }
+            Ok(case)
+        }
+        _ => Err(Failure::bad_input(match &args.case {
+            Some(path) => format!("{}: exciter.kind: a hammer chart needs a hammer", path.display()),
+            None => format!("--instrument: the {} has no hammer; a hammer chart needs one", args.instrument),
+        })),
+    }
+}
+
+fn report(drawn: &[Drawn], started: Instant) {
+    for d in drawn {
+        println!("wrote {} and {}", d.png.display(), d.csv.display());
+    }
+    println!("took {:.1} s", started.elapsed().as_secs_f64());
+}
+
+pub fn run(args: &ChartArgs) -> Result<(), Failure> {
+    let started = Instant::now();
+    let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
+    let out = &args.out;
+    let drawn = match &args.chart {
+        Chart::Hammer(h) => {
+            check_grid(h.grid.grid)?;
+            let case = hammer_case(h)?;
+            let options = GridOptions { size: h.grid.grid, log_mass: h.grid.log_mass, progress: true };
+            hammer_figures::hammer_charts(&case, &options, out, "hammer").map_err(failed)?
+        }
+        Chart::Universal(u) => {
+            check_grid(u.grid)?;
+            let options = GridOptions { size: u.grid, log_mass: true, progress: true };
+            hammer_figures::universal_charts(&options, out).map_err(failed)?
+        }
+        Chart::Stringing(s) => figures::stringing(parse_kind(&s.instrument)?, out, "stringing").map_err(failed)?,
+        Chart::Strike(s) => {
+            let mut cases = Vec::new();
+            for path in &s.cases {
+                let case = read_case(path, &s.sets)?;
+                if s.speeds.is_empty() {
+                    cases.push(case.clone());
+                }
+                for &v in &s.speeds {
+                    let v = check_speed(v).map_err(|_| {
+                        Failure::bad_input(format!("--speeds: each must be above 0 and at most 100 m/s (got {v})"))
+                    })?;
+                    let mut c = case.clone();
+                    match &mut c.exciter {
+                        lab::ExciterSpec::Hammer(h) => h.speed_m_s = v,
+                        lab::ExciterSpec::Tangent(t) => t.speed_m_s = v,
+                        lab::ExciterSpec::Pluck(_) => {
+                            return Err(Failure::bad_input(format!(
+                                "--speeds: {} is a pluck, which has no speed",
+                                path.display()
+                            )));
+                        }
+                    }
+                    c.name = Some(format!("{} at {v} m/s", c.name.as_deref().unwrap_or("case")));
+                    cases.push(c);
+                }
+            }
+            figures::strikes(&cases, out, s.per_speed).map_err(failed)?
+        }
+        Chart::Clavichord => figures::clavichord(out).map_err(failed)?,
+    };
+    report(&drawn, started);
+    Ok(())
+}

@@ -1,0 +1,213 @@
+//! `struck demo --quick`: the seed's lab redone, checked as a person would check
+//! it. Every file is there and is what it claims to be, the page's links all
+//! resolve, Sound 12 goes quiet clavichord < louder clavichord < harpsichord,
+//! C2's hammer leaves before the far end's reflection is back, and the hammer
+//! chart's contact time rises with mass and falls with stiffness.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use struck_engine::lab::seed;
+use struck_tests::{stderr, stdout, struck};
+
+/// The demo, run once for every test here.
+fn demo() -> &'static Path {
+    static DIR: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
+    let (_, out) = DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("demo");
+        let run = struck(&["demo", "--quick", "--out", out.to_str().unwrap()]);
+        assert!(run.status.success(), "struck demo failed: {}\n{}", stderr(&run), stdout(&run));
+        (dir, out)
+    });
+    out
+}
+
+/// The files the page links to, in order (src= and href= attributes).
+fn links(html: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for attribute in ["src=\"", "href=\""] {
+        let mut rest = html;
+        while let Some(i) = rest.find(attribute) {
+            rest = &rest[i + attribute.len()..];
+            let end = rest.find('"').expect("a closed attribute");
+            found.push(rest[..end].to_string());
+            rest = &rest[end..];
+        }
+    }
+    found
+}
+
+#[test]
+fn every_linked_file_is_there_and_is_what_it_claims() {
+    let dir = demo();
+    let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let links = links(&html);
+    let count = |ext: &str| links.iter().filter(|l| l.ends_with(ext)).collect::<std::collections::BTreeSet<_>>().len();
+    assert_eq!(count(".wav"), 12, "Sounds 1-12");
+    assert_eq!(count(".gif"), 5, "Figs. 2, 23, 24, 25 and 32");
+    // Figs. 3-5, 8-10, 12-22, 26, 29-31, 33-35.
+    assert_eq!(count(".png"), 3 + 3 + 11 + 1 + 3 + 3);
+    for link in &links {
+        assert!(!link.contains("..") && !link.starts_with('/') && !link.contains("://"), "{link} is not local");
+        let path = dir.join(link);
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{link}: {e}"));
+        let kind = link.rsplit('.').next().unwrap();
+        match kind {
+            "png" => {
+                assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{link}");
+                assert!(bytes.len() > 10_000, "{link}: {} bytes", bytes.len());
+            }
+            "gif" => {
+                assert!(bytes.starts_with(b"GIF89a"), "{link}");
+                assert!(bytes.len() > 20_000, "{link}: {} bytes", bytes.len());
+            }
+            "csv" => {
+                let text = String::from_utf8(bytes).unwrap();
+                assert!(text.lines().count() > 5, "{link}");
+            }
+            "wav" => {
+                let reader = hound::WavReader::open(&path).unwrap();
+                let seconds = reader.duration() as f64 / reader.spec().sample_rate as f64;
+                assert!(seconds >= 1.5, "{link}: {seconds} s");
+                let peak = reader.into_samples::<i16>().map(|s| s.unwrap().unsigned_abs()).max().unwrap();
+                // Normalised to -1 dBFS.
+                assert!((29_000..=29_300).contains(&peak), "{link}: peak {peak}");
+            }
+            other => panic!("{link}: unexpected .{other}"),
+        }
+    }
+    // In the seed's order: Fig. 2 first, Sound 12 last.
+    let first_figure = html.find("fig02").unwrap();
+    assert!(first_figure < html.find("sound01").unwrap());
+    assert!(html.rfind("sound12").unwrap() > html.rfind("fig35").unwrap());
+}
+
+fn segment_rms(samples: &[f64], parts: usize) -> Vec<f64> {
+    let n = samples.len() / parts;
+    (0..parts).map(|i| (samples[i * n..(i + 1) * n].iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt()).collect()
+}
+
+fn wav(path: &Path) -> Vec<f64> {
+    hound::WavReader::open(path).unwrap().into_samples::<i16>().map(|s| s.unwrap() as f64 / 32768.0).collect()
+}
+
+/// The file in `dir` whose name starts with `prefix` and ends with `ext`.
+fn file_starting(dir: &Path, prefix: &str, ext: &str) -> PathBuf {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            name.starts_with(prefix) && name.ends_with(ext)
+        })
+        .unwrap_or_else(|| panic!("no {prefix}*{ext}"))
+}
+
+#[test]
+fn sound_12_keeps_the_seeds_order_of_loudness() {
+    let samples = wav(&file_starting(demo(), "sound12-", ".wav"));
+    let rms = segment_rms(&samples, 3);
+    let db: Vec<f64> = rms.iter().map(|r| 20.0 * r.log10()).collect();
+    println!("Sound 12: quiet clavichord {:.1} dB, louder {:.1} dB, harpsichord {:.1} dB", db[0], db[1], db[2]);
+    assert!(db[0] + 6.0 < db[1], "{db:?}");
+    assert!(db[1] + 3.0 < db[2], "{db:?}");
+}
+
+#[test]
+fn sound_7_gets_louder_note_by_note() {
+    let samples = wav(&file_starting(demo(), "sound07-", ".wav"));
+    let rms = segment_rms(&samples, 5);
+    assert!(rms.windows(2).all(|w| w[1] > w[0] * 1.5), "{rms:?}");
+}
+
+/// A tidy line-plot CSV: series name to its (x, y) points.
+fn series(path: &Path) -> BTreeMap<String, Vec<(f64, f64)>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("series,x,y"), "{}", path.display());
+    let mut out: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for line in lines {
+        let mut fields = line.rsplitn(3, ',');
+        let y: f64 = fields.next().unwrap().parse().unwrap();
+        let x: f64 = fields.next().unwrap().parse().unwrap();
+        let name = fields.next().unwrap().trim_matches('"').to_string();
+        out.entry(name).or_default().push((x, y));
+    }
+    out
+}
+
+#[test]
+fn c2s_hammer_leaves_before_the_far_ends_reflection_returns() {
+    let forces = series(&file_starting(demo(), "fig12-", ".csv"));
+    assert_eq!(forces.len(), 5, "five speeds");
+    let string = seed::piano_c_string(2, true).build().unwrap();
+    let beta = seed::piano_c_hammer(2, 1.0).position;
+    let c = 2.0 * string.length_m * string.f0_hz;
+    // From the strike point to the far end and back.
+    let far_ms = 2.0 * (1.0 - beta) * string.length_m / c * 1e3;
+    let near_ms = 2.0 * beta * string.length_m / c * 1e3;
+    for (speed, points) in &forces {
+        let last = points.iter().filter(|p| p.1 > 0.0).map(|p| p.0).fold(0.0, f64::max);
+        println!(
+            "{speed}: contact ends at {last:.2} ms; near end's reflection {near_ms:.2} ms, far end's {far_ms:.2} ms"
+        );
+        assert!(last > near_ms, "{speed}: {last} ms");
+        assert!(last < far_ms, "{speed}: {last} ms");
+    }
+}
+
+/// A heatmap CSV: (x, y) to value (None for no data).
+fn grid(path: &Path) -> (Vec<f64>, Vec<f64>, BTreeMap<(usize, usize), Option<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut rows: Vec<(f64, f64, Option<f64>)> = Vec::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let value = f[2].parse::<f64>().ok().filter(|v| v.is_finite());
+        rows.push((f[0].parse().unwrap(), f[1].parse().unwrap(), value));
+    }
+    let axis = |pick: fn(&(f64, f64, Option<f64>)) -> f64| {
+        let mut v: Vec<f64> = rows.iter().map(pick).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
+    };
+    let (xs, ys) = (axis(|r| r.0), axis(|r| r.1));
+    let index = |axis: &[f64], v: f64| axis.iter().position(|&a| a == v).unwrap();
+    let cells = rows.iter().map(|r| ((index(&xs, r.0), index(&ys, r.1)), r.2)).collect();
+    (xs, ys, cells)
+}
+
+#[test]
+fn the_hammer_charts_contact_time_rises_with_mass_and_falls_with_stiffness() {
+    let dir = demo();
+    let (xs, ys, time) = grid(&file_starting(dir, "fig15-", ".csv"));
+    let (_, _, contacts) = grid(&file_starting(dir, "fig16-", ".csv"));
+    assert_eq!(xs.len() * ys.len(), time.len());
+    let single = |ix: usize, iy: usize| contacts[&(ix, iy)] == Some(1.0);
+    let (mut checked, mut agree) = (0, 0);
+    for ix in 0..xs.len() {
+        for iy in 0..ys.len() {
+            let Some(t) = time[&(ix, iy)] else { continue };
+            if !single(ix, iy) {
+                continue;
+            }
+            if ix + 1 < xs.len() && single(ix + 1, iy) {
+                if let Some(heavier) = time[&(ix + 1, iy)] {
+                    checked += 1;
+                    agree += usize::from(heavier > t);
+                }
+            }
+            if iy + 1 < ys.len() && single(ix, iy + 1) {
+                if let Some(stiffer) = time[&(ix, iy + 1)] {
+                    checked += 1;
+                    agree += usize::from(stiffer < t);
+                }
+            }
+        }
+    }
+    println!("{agree} of {checked} neighbouring single-contact pairs follow the trend");
+    assert!(checked >= 100, "{checked}");
+    assert!(agree as f64 >= 0.95 * checked as f64, "{agree} of {checked}");
+}

@@ -31,7 +31,7 @@ pub struct AnimateArgs {
     #[arg(long, default_value_t = 120, value_name = "N")]
     pub frames: usize,
     /// For a tangent or a pluck: how many periods of the string to show.
-    #[arg(long, default_value_t = 2.0, value_name = "P")]
+    #[arg(long, default_value_t = 2.0, value_name = "P", allow_negative_numbers = true)]
     pub periods: f64,
 }
 
@@ -52,21 +52,32 @@ pub fn draw_film(
     let film = film::film(case, options.frames, periods);
     let xs: Vec<f64> = (0..SHAPE_POINTS).map(|j| film.length_m * j as f64 / (SHAPE_POINTS - 1) as f64).collect();
     let is_tangent = matches!(case.exciter, ExciterSpec::Tangent(_));
+    // Drawn as the seed draws them: a hammer comes down onto the string (the lab's
+    // +y, the push, is down on the screen); a tangent rises from below.
+    let sign = if is_tangent { 1.0 } else { -1.0 };
     let frames: Vec<AnimationFrame> = film
         .frames
         .iter()
         .map(|f| AnimationFrame {
             time_s: f.time_s,
             string_x_m: xs.clone(),
-            string_y_m: f.shape_m.clone(),
-            hammer: if is_tangent { None } else { f.exciter_m.map(|y| (film.exciter_x_m, y)) },
-            struck_point: Some((film.exciter_x_m, f.struck_point_m)),
+            string_y_m: f.shape_m.iter().map(|y| sign * y).collect(),
+            hammer: if is_tangent { None } else { f.exciter_m.map(|y| (film.exciter_x_m, sign * y)) },
+            struck_point: Some((film.exciter_x_m, sign * f.struck_point_m)),
         })
         .collect();
+    // The scale is the string's: a hammer pressing far into its felt, or flying
+    // off, leaves the picture (as in the seed's Fig. 25).
+    let (low, high) = frames
+        .iter()
+        .flat_map(|f| f.string_y_m.iter().copied().chain(f.struck_point.map(|p| p.1)))
+        .fold((0.0f64, 0.0f64), |(l, h), y| (l.min(y), h.max(y)));
+    let pad = 0.25 * (high - low).max(1e-9);
     let count = frames.len().max(1) as f64;
     let animation = Animation {
         frame_delay_ms: ((PLAY_S * 1e3 / count).round() as u32).clamp(20, 500),
         y_label: "displacement (mm, exaggerated)".into(),
+        y_range_m: Some((low - pad, high + pad)),
         ..Animation::new(title, frames)
     };
     animation.draw_gif(gif)?;
@@ -80,6 +91,10 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
     }
     if !(args.periods.is_finite() && args.periods > 0.0 && args.periods <= 100.0) {
         return Err(Failure::bad_input(format!("--periods: must lie above 0 and at most 100 (got {})", args.periods)));
+    }
+    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| Failure::failed(format!("{}: cannot create: {e}", parent.display())))?;
     }
     let title = case.name.clone().unwrap_or_else(|| args.case.display().to_string());
     draw_film(&case, args.periods, &title, &FilmOptions { frames: args.frames }, &args.out)

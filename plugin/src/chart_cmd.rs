@@ -56,7 +56,7 @@ pub struct HammerArgs {
     #[arg(long, value_name = "FILE", conflicts_with_all = ["instrument", "key"])]
     pub case: Option<PathBuf>,
     /// Hammer speed, m/s [default: 2.5, forte; a case file's own speed]
-    #[arg(long, value_name = "M/S")]
+    #[arg(long, value_name = "M/S", allow_negative_numbers = true)]
     pub speed: Option<f64>,
     #[command(flatten)]
     pub grid: GridArgs,
@@ -95,7 +95,7 @@ pub struct StrikeChartArgs {
     #[arg(long = "set", value_name = "PATH=VALUE")]
     pub sets: Vec<String>,
     /// Run each case at each of these hammer or tangent speeds (m/s, comma-separated).
-    #[arg(long, value_name = "V,V,...", value_delimiter = ',')]
+    #[arg(long, value_name = "V,V,...", value_delimiter = ',', allow_negative_numbers = true)]
     pub speeds: Vec<f64>,
     /// Divide the contact force by the speed (the seed's Fig. 13).
     #[arg(long)]
@@ -175,19 +175,27 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
     let started = Instant::now();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     let out = &args.out;
+    let create =
+        || std::fs::create_dir_all(out).map_err(|e| Failure::failed(format!("{}: cannot create: {e}", out.display())));
     let drawn = match &args.chart {
         Chart::Hammer(h) => {
             check_grid(h.grid.grid)?;
             let case = hammer_case(h)?;
             let options = GridOptions { size: h.grid.grid, log_mass: h.grid.log_mass, progress: true };
+            create()?;
             hammer_figures::hammer_charts(&case, &options, out, "hammer").map_err(failed)?
         }
         Chart::Universal(u) => {
             check_grid(u.grid)?;
             let options = GridOptions { size: u.grid, log_mass: true, progress: true };
+            create()?;
             hammer_figures::universal_charts(&options, out).map_err(failed)?
         }
-        Chart::Stringing(s) => figures::stringing(parse_kind(&s.instrument)?, out, "stringing").map_err(failed)?,
+        Chart::Stringing(s) => {
+            let kind = parse_kind(&s.instrument)?;
+            create()?;
+            figures::stringing(kind, out, "stringing").map_err(failed)?
+        }
         Chart::Strike(s) => {
             let mut cases = Vec::new();
             for path in &s.cases {
@@ -214,9 +222,13 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                     cases.push(c);
                 }
             }
+            create()?;
             figures::strikes(&cases, out, s.per_speed).map_err(failed)?
         }
-        Chart::Clavichord => figures::clavichord(out).map_err(failed)?,
+        Chart::Clavichord => {
+            create()?;
+            figures::clavichord(out).map_err(failed)?
+        }
     };
     report(&drawn, started);
     Ok(())

@@ -56,7 +56,7 @@ fn run(grid: &HammerGrid, what: &str, options: &GridOptions) -> (GridResult, f64
     let done = AtomicU64::new(0);
     let result = sweep::run_grid(grid, &|| {
         let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-        if n % 16 == 0 {
+        if n.is_multiple_of(16) {
             bar.set_position(n);
         }
     });

@@ -158,8 +158,11 @@ fn c2s_hammer_leaves_before_the_far_ends_reflection_returns() {
     }
 }
 
-/// A heatmap CSV: (x, y) to value (None for no data).
-fn grid(path: &Path) -> (Vec<f64>, Vec<f64>, BTreeMap<(usize, usize), Option<f64>>) {
+/// Cells of a heatmap by (x index, y index); None for no data.
+type Cells = BTreeMap<(usize, usize), Option<f64>>;
+
+/// A heatmap CSV: its x and y axes and its cells.
+fn grid(path: &Path) -> (Vec<f64>, Vec<f64>, Cells) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut rows: Vec<(f64, f64, Option<f64>)> = Vec::new();
     for line in text.lines().skip(1) {
@@ -193,21 +196,97 @@ fn the_hammer_charts_contact_time_rises_with_mass_and_falls_with_stiffness() {
             if !single(ix, iy) {
                 continue;
             }
-            if ix + 1 < xs.len() && single(ix + 1, iy) {
-                if let Some(heavier) = time[&(ix + 1, iy)] {
-                    checked += 1;
-                    agree += usize::from(heavier > t);
-                }
+            if ix + 1 < xs.len()
+                && single(ix + 1, iy)
+                && let Some(heavier) = time[&(ix + 1, iy)]
+            {
+                checked += 1;
+                agree += usize::from(heavier > t);
             }
-            if iy + 1 < ys.len() && single(ix, iy + 1) {
-                if let Some(stiffer) = time[&(ix, iy + 1)] {
-                    checked += 1;
-                    agree += usize::from(stiffer < t);
-                }
+            if iy + 1 < ys.len()
+                && single(ix, iy + 1)
+                && let Some(stiffer) = time[&(ix, iy + 1)]
+            {
+                checked += 1;
+                agree += usize::from(stiffer < t);
             }
         }
     }
     println!("{agree} of {checked} neighbouring single-contact pairs follow the trend");
     assert!(checked >= 100, "{checked}");
     assert!(agree as f64 >= 0.95 * checked as f64, "{agree} of {checked}");
+}
+
+/// `struck chart` and `struck animate` refuse bad arguments with status 2 and one
+/// line naming the argument, and write nothing.
+#[test]
+fn chart_and_animate_refuse_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("charts");
+    let out_arg = out.to_str().unwrap();
+    let missing = dir.path().join("missing.json");
+    let gif = dir.path().join("a.gif");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["chart", "hammer", "--instrument", "clavichord", "--key", "D2", "--out", out_arg], "--instrument"),
+        (vec!["chart", "hammer", "--instrument", "banjo", "--out", out_arg], "--instrument"),
+        (vec!["chart", "hammer", "--key", "H9", "--out", out_arg], "--key"),
+        (vec!["chart", "hammer", "--key", "C1", "--instrument", "santoor", "--out", out_arg], "--key"),
+        (vec!["chart", "hammer", "--grid", "1", "--out", out_arg], "--grid"),
+        (vec!["chart", "hammer", "--speed", "-1", "--out", out_arg], "--speed"),
+        (vec!["chart", "universal", "--grid", "100000", "--out", out_arg], "--grid"),
+        (vec!["chart", "strike", missing.to_str().unwrap(), "--out", out_arg], "missing.json"),
+        (vec!["animate", missing.to_str().unwrap(), "--out", gif.to_str().unwrap()], "missing.json"),
+    ];
+    for (args, names) in cases {
+        let run = struck(&args);
+        let message = stderr(&run);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {message}");
+        assert_eq!(message.lines().count(), 1, "{args:?}: {message:?}");
+        assert!(message.contains(names), "{args:?}: {message:?} should name {names}");
+        assert!(!out.exists() && !gif.exists(), "{args:?} wrote something");
+    }
+}
+
+/// The chart commands draw what they say, for keys of other instruments and for
+/// case files.
+#[test]
+fn charts_and_animations_of_any_key_or_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("charts");
+    let out_arg = out.to_str().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, struck_tests::SANTOOR_CASE).unwrap();
+    let case_arg = case.to_str().unwrap();
+    let gif = dir.path().join("gifs").join("santoor.gif");
+    for args in [
+        vec!["chart", "hammer", "--instrument", "cimbalom", "--key", "A3", "--grid", "6", "--out", out_arg],
+        vec!["chart", "hammer", "--case", case_arg, "--grid", "5", "--log-mass", "--out", out_arg],
+        vec!["chart", "strike", case_arg, "--speeds", "0.5,2", "--per-speed", "--out", out_arg],
+        vec!["chart", "stringing", "--instrument", "dulcimer", "--out", out_arg],
+        vec!["chart", "clavichord", "--out", out_arg],
+        vec!["chart", "universal", "--grid", "4", "--out", out_arg],
+        vec!["animate", case_arg, "--frames", "20", "--out", gif.to_str().unwrap()],
+    ] {
+        let run = struck(&args);
+        assert!(run.status.success(), "{args:?}: {}", stderr(&run));
+    }
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    for expected in [
+        "hammer-contact-time.png",
+        "hammer-contacts.csv",
+        "hammer-centroid.png",
+        "contact-force.png",
+        "bridge-force-spectrum.csv",
+        "stringing-dulcimer-impedance.png",
+        "fig29-clavichord-pitch-rise.png",
+        "fig22-universal-centroid.png",
+    ] {
+        assert!(names.iter().any(|n| n == expected), "{expected} not in {names:?}");
+    }
+    // Two speeds drawn, force divided by each.
+    let contact = series(&out.join("contact-force.csv"));
+    assert_eq!(contact.len(), 2, "{:?}", contact.keys());
+    assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF89a"));
 }

@@ -1,6 +1,7 @@
 //! `cargo xtask demo`: build Struck in release and render the demo offline
-//! (no sound card): every MIDI file in `demo-songs/` through `struck render`,
-//! and the lab bench's santoor strike, all into `demo/`.
+//! (no sound card), all into `demo/`: the seed's lab (`struck demo`: Sounds
+//! 1-12, every figure, the animations, `demo/index.html`), every MIDI file in
+//! `demo-songs/` through `struck render`, and the lab bench's santoor strike.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -108,6 +109,11 @@ pub fn demo(options: &Options) -> Result<()> {
         Step::new("build", "cargo xtask bundle struck --release (the `struck` binary, and the plugin bundles)", || {
             bundle::bundle(true, false)
         }),
+        Step::new(
+            "seed",
+            "the seed's lab: Euphonics 12.2's Sounds 1-12, figures and animations (`struck demo`)",
+            || run(struck()?.args(["demo", "--out", OUT_DIR])),
+        ),
         Step::new("strike", "the lab demo: Euphonics 12.2's santoor string struck by a 1 g mallet", || {
             std::fs::create_dir_all(&out_dir)?;
             run(struck()?
@@ -134,8 +140,12 @@ pub fn demo(options: &Options) -> Result<()> {
     let outcomes = steps::run("demo", &steps, &vec![true; steps.len()]);
     println!("{}", steps::summary("demo", &names, &outcomes));
 
-    let mut written: Vec<PathBuf> =
-        vec![out_dir.join("santoor-a4.wav"), out_dir.join("metrics.json"), out_dir.join("trace.csv")];
+    let mut written: Vec<PathBuf> = vec![
+        out_dir.join("index.html"),
+        out_dir.join("santoor-a4.wav"),
+        out_dir.join("metrics.json"),
+        out_dir.join("trace.csv"),
+    ];
     written.extend(songs.iter().map(|s| s.wav.clone()));
     let present: Vec<&PathBuf> = written.iter().filter(|p| p.exists()).collect();
     if !present.is_empty() {

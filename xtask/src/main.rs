@@ -21,9 +21,11 @@ Struck's tasks
 
 Usage:
   cargo xtask demo [--no-install]
-      Build Struck in release and render the demo offline into demo/: every
-      demo-songs/*.mid with `struck render` (the instrument is the file name's
-      prefix, e.g. piano-*.mid), and the lab bench's santoor strike.
+      Build Struck in release and render the demo offline into demo/: the
+      seed's lab with `struck demo` (Sounds 1-12, figures, animations and
+      demo/index.html), every demo-songs/*.mid with `struck render` (the
+      instrument is the file name's prefix, e.g. piano-*.mid), and the lab
+      bench's santoor strike.
   cargo xtask test [--release] [--no-install] [--list]
                    [--only STEP,...] [--skip STEP,...] [--from STEP]
       Every test, as named steps in order: system packages, the plugin bundle,

@@ -4,10 +4,10 @@
 //! The case is run on the same [`StruckString`] the lab and the instrument use;
 //! every sample's state is available, and `frames` of them, equally spaced in
 //! time, are kept. A hammer is filmed until it has been thrown clear of the
-//! string (flying away, out of contact, at least as far below the string as the
-//! string's largest excursion so far, or 5 string periods, whichever is later),
-//! then a tenth as long again; a tangent or a pluck for `tangent_periods` periods of
-//! the string.
+//! string (flying away, out of contact, further from the string than the
+//! string's largest excursion so far), then a tenth as long again: just long
+//! enough to see it thrown off, as the seed's animations end. A tangent or a
+//! pluck is filmed for a given number of periods of the string.
 
 use crate::lab::case::{ExciterSpec, StrikeCase};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
@@ -84,12 +84,11 @@ pub fn film(case: &StrikeCase, frames: usize, periods: f64) -> Film {
             struck_point_m: tick.string_position_m,
         });
         if is_hammer {
-            let min_rows = (5.0 * period_s * fs) as usize;
             if clear_at.is_none() && row >= 2 && s.hammer_gone(excursion_m, 0.0) {
                 clear_at = Some(row);
             }
             if let Some(clear) = clear_at
-                && row >= (clear + clear / 10).max(min_rows.min(2 * clear))
+                && row >= clear + (clear / 10).max(2)
             {
                 break;
             }

@@ -194,7 +194,9 @@ pub fn key_case(
         ExciterDesign::Hammer { mass_kg, law, position } => {
             ExciterSpec::Hammer(HammerSpec { mass_kg, law, speed_m_s, position })
         }
-        ExciterDesign::Tangent { displacement_m, .. } => ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m }),
+        ExciterDesign::Tangent { displacement_m, .. } => {
+            ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m })
+        }
         ExciterDesign::Pluck { position } => {
             ExciterSpec::Pluck(PluckSpec { displacement_m: CLAVICHORD_DISPLACEMENT_M, position })
         }
@@ -220,8 +222,7 @@ pub fn harpsichord_damped(spec: &StringSpec) -> StringSpec {
 
 /// The clavichord's D2 met by its tangent at `speed_m_s`, coming to rest 2 mm in.
 pub fn clavichord_case(speed_m_s: f64, sample_rate_hz: f64, duration_s: f64) -> StrikeCase {
-    let exciter =
-        ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m: CLAVICHORD_DISPLACEMENT_M });
+    let exciter = ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m: CLAVICHORD_DISPLACEMENT_M });
     let name = format!("clavichord D2, tangent at {speed_m_s} m/s to 2 mm");
     case(name, sample_rate_hz, duration_s, clavichord_string(), exciter)
 }
@@ -377,7 +378,11 @@ mod tests {
                 let case = key_case(kind, row.midi_key, 1.0, 48_000.0, 0.1).expect("a key with strings");
                 let s = built(&case.string);
                 // The course as one string: total impedance preserved.
-                assert!((s.impedance_ns_m() / row.total_impedance_ns_m - 1.0).abs() < 0.02, "{kind:?} {}", row.midi_key);
+                assert!(
+                    (s.impedance_ns_m() / row.total_impedance_ns_m - 1.0).abs() < 0.02,
+                    "{kind:?} {}",
+                    row.midi_key
+                );
             }
         }
         let piano = stringing(InstrumentKind::Piano);

@@ -45,6 +45,11 @@ fn plot(title: impl Into<String>, x_label: &str, y_label: &str, series: Vec<Seri
     LinePlot { series, ..LinePlot::new(title, x_label, y_label) }
 }
 
+/// A chart of forces against time from 0 to `until_s`, in ms.
+fn timed(title: impl Into<String>, y_label: &str, until_s: f64, series: Vec<Series>) -> LinePlot {
+    LinePlot { x_range: Some((0.0, until_s * 1e3)), ..plot(title, "time (ms)", y_label, series) }
+}
+
 /// Time (ms) against `values`, from sample 0 to `until_s`.
 fn against_time_ms(values: &[f64], sample_rate_hz: f64, until_s: f64, scale: f64) -> Vec<(f64, f64)> {
     let rows = ((until_s * sample_rate_hz).ceil() as usize).min(values.len());
@@ -92,13 +97,12 @@ pub fn santoor(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fs = FIGURE_RATE_HZ;
     let until = contact_end_s(&at_2_5).max(contact_end_s(&at_1_10)) * 1.15;
     let mut drawn = Vec::new();
-    let mut fig3 = plot(
+    let fig3 = timed(
         "Fig. 3: santoor string, 1 g mallet at 1 m/s, struck at 2/5",
-        "time (ms)",
         "contact force (N)",
+        until,
         vec![series("", Colour::RED, against_time_ms(&at_2_5.trace.contact_force_n, fs, until, 1.0))],
     );
-    fig3.x_range = Some((0.0, until * 1e3));
     drawn.push(draw_line(&fig3, dir, "fig03-santoor-force")?);
 
     let pulse = &at_2_5.trace.contact_force_n[..((until * fs) as usize).min(at_2_5.trace.len())];
@@ -120,16 +124,15 @@ pub fn santoor(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     };
     drawn.push(draw_line(&fig4, dir, "fig04-santoor-spectra")?);
 
-    let mut fig5 = plot(
+    let fig5 = timed(
         "Fig. 5: the 1 g mallet's force, struck at 1/10 (blue) and at 2/5 (red)",
-        "time (ms)",
         "contact force (N)",
+        until,
         vec![
             series("at 2/5", Colour::RED, against_time_ms(&at_2_5.trace.contact_force_n, fs, until, 1.0)),
             series("at 1/10", Colour::BLUE, against_time_ms(&at_1_10.trace.contact_force_n, fs, until, 1.0)),
         ],
     );
-    fig5.x_range = Some((0.0, until * 1e3));
     drawn.push(draw_line(&fig5, dir, "fig05-santoor-force-1-10")?);
     Ok(drawn)
 }
@@ -204,17 +207,10 @@ pub fn piano_speeds(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
             .collect()
     };
     let mut drawn = Vec::new();
-    let mut fig12 =
-        plot("Fig. 12: C2 and its own hammer at five speeds", "time (ms)", "contact force (N)", curves(false));
-    fig12.x_range = Some((0.0, until * 1e3));
+    let fig12 = timed("Fig. 12: C2 and its own hammer at five speeds", "contact force (N)", until, curves(false));
     drawn.push(draw_line(&fig12, dir, "fig12-c2-force")?);
-    let mut fig13 = plot(
-        "Fig. 13: the same forces divided by the hammer's speed",
-        "time (ms)",
-        "force / speed (N s/m)",
-        curves(true),
-    );
-    fig13.x_range = Some((0.0, until * 1e3));
+    let fig13 =
+        timed("Fig. 13: the same forces divided by the hammer's speed", "force / speed (N s/m)", until, curves(true));
     drawn.push(draw_line(&fig13, dir, "fig13-c2-force-per-speed")?);
     // One reference for all five so the levels compare: 1 N s (a pulse's spectrum
     // at low frequency is its impulse).
@@ -239,16 +235,15 @@ pub fn piano_c7(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fs = FIGURE_RATE_HZ;
     let run = lab::run(&seed::piano_c_case(7, 7, seed::PIANO_MEZZO_SPEED_M_S, true, fs, 0.05));
     let until = (contact_end_s(&run) * 2.5).max(3e-3);
-    let mut fig = plot(
+    let fig = timed(
         "Fig. 26: C7 with its own hammer at 1 m/s, bridge force (blue) and contact force (red)",
-        "time (ms)",
         "force (N)",
+        until,
         vec![
             series("bridge force", Colour::BLUE, against_time_ms(&run.trace.bridge_force_n, fs, until, 1.0)),
             series("contact force", Colour::RED, against_time_ms(&run.trace.contact_force_n, fs, until, 1.0)),
         ],
     );
-    fig.x_range = Some((0.0, until * 1e3));
     Ok(vec![draw_line(&fig, dir, "fig26-c7-bridge-force")?])
 }
 

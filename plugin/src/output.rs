@@ -54,33 +54,31 @@ impl Staged {
 
     /// Write a mono 32-bit float WAV.
     pub fn write_wav(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        let spec = hound::WavSpec {
-            channels: 1,
-            sample_rate: sample_rate_hz.round() as u32,
-            bits_per_sample: 32,
-            sample_format: hound::SampleFormat::Float,
-        };
-        self.stage(path, |temporary| {
-            let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
-            for &s in samples {
-                w.write_sample(s).map_err(io::Error::other)?;
-            }
-            w.finalize().map_err(io::Error::other)
-        })
+        self.write_mono(path, sample_rate_hz, 32, hound::SampleFormat::Float, samples, |w, s| w.write_sample(s))
     }
 
     /// Write a mono 16-bit PCM WAV (what every browser's player takes), clipping at full scale.
     pub fn write_wav16(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        let spec = hound::WavSpec {
-            channels: 1,
-            sample_rate: sample_rate_hz.round() as u32,
-            bits_per_sample: 16,
-            sample_format: hound::SampleFormat::Int,
-        };
+        self.write_mono(path, sample_rate_hz, 16, hound::SampleFormat::Int, samples, |w, s| {
+            w.write_sample((s.clamp(-1.0, 1.0) * i16::MAX as f32).round() as i16)
+        })
+    }
+
+    fn write_mono(
+        &mut self,
+        path: &Path,
+        sample_rate_hz: f64,
+        bits_per_sample: u16,
+        sample_format: hound::SampleFormat,
+        samples: &[f32],
+        put: impl Fn(&mut hound::WavWriter<BufWriter<fs::File>>, f32) -> hound::Result<()>,
+    ) -> Result<(), Failure> {
+        let spec =
+            hound::WavSpec { channels: 1, sample_rate: sample_rate_hz.round() as u32, bits_per_sample, sample_format };
         self.stage(path, |temporary| {
             let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
             for &s in samples {
-                w.write_sample((s.clamp(-1.0, 1.0) * i16::MAX as f32).round() as i16).map_err(io::Error::other)?;
+                put(&mut w, s).map_err(io::Error::other)?;
             }
             w.finalize().map_err(io::Error::other)
         })

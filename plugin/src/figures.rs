@@ -109,7 +109,7 @@ pub fn santoor(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fig4 = LinePlot {
         y_range: Some((-80.0, 5.0)),
         ..plot(
-            "Fig. 4: spectra, contact force (red) and bridge force over 0.5 s (blue)",
+            "Fig. 4: spectra of the contact force and of the bridge force",
             "frequency (Hz)",
             "level (dB re each curve's peak)",
             vec![
@@ -125,7 +125,7 @@ pub fn santoor(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     drawn.push(draw_line(&fig4, dir, "fig04-santoor-spectra")?);
 
     let fig5 = timed(
-        "Fig. 5: the 1 g mallet's force, struck at 1/10 (blue) and at 2/5 (red)",
+        "Fig. 5: the 1 g mallet's force, struck at 1/10 and at 2/5",
         "contact force (N)",
         until,
         vec![
@@ -236,7 +236,7 @@ pub fn piano_c7(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let run = lab::run(&seed::piano_c_case(7, 7, seed::PIANO_MEZZO_SPEED_M_S, true, fs, 0.05));
     let until = (contact_end_s(&run) * 2.5).max(3e-3);
     let fig = timed(
-        "Fig. 26: C7 with its own hammer at 1 m/s, bridge force (blue) and contact force (red)",
+        "Fig. 26: C7, its own hammer at 1 m/s: bridge and contact force",
         "force (N)",
         until,
         vec![
@@ -290,10 +290,13 @@ pub fn clavichord(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
         s.modes.iter().filter(|m| m.frequency_hz() <= 5_000.0).map(|m| (m.frequency_hz(), m.q)).collect()
     };
     let mut fig31 = plot(
-        "Fig. 31: Q of D2's partials, clavichord with tangent leakage (red) and harpsichord without (blue)",
+        "Fig. 31: Q of D2's partials, with and without tangent leakage",
         "frequency (Hz)",
         "Q",
-        vec![series("with tangent leakage", Colour::RED, q(&clav)), series("without", Colour::BLUE, q(&harp))],
+        vec![
+            series("clavichord, with tangent leakage", Colour::RED, q(&clav)),
+            series("harpsichord damping, without", Colour::BLUE, q(&harp)),
+        ],
     );
     fig31.x_scale = Scale::Log;
     fig31.y_scale = Scale::Log;
@@ -326,7 +329,7 @@ pub fn clavichord_strikes(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     drawn.push(draw_line(&fig33, dir, "fig33-clavichord-bridge-force")?);
     let [quiet, typical, _] = seed::CLAVICHORD_SPEEDS_M_S;
     let fig34 = plot(
-        "Fig. 34: clavichord (black, blue) and a harpsichord pluck on the same string (green)",
+        "Fig. 34: clavichord and harpsichord pluck, same string",
         "time (ms)",
         "bridge force (N)",
         vec![

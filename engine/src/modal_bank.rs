@@ -208,6 +208,10 @@ pub struct ModalBank {
     omega: Vec<f64>,
     modal_mass_kg: f64,
     scratch: Vec<[f64; LANES]>,
+    /// Modes the free loop runs (a multiple of [`LANES`]): every mode above is at
+    /// rest, left there by [`Self::cull`]. Anything that moves the modes otherwise
+    /// sets it back to all of them.
+    running: usize,
 }
 
 impl ModalBank {
@@ -231,12 +235,22 @@ impl ModalBank {
             omega,
             modal_mass_kg: string.modal_mass_kg(),
             scratch: vec![[0.0; LANES]; FREE_BLOCK],
+            running: 0,
         }
     }
 
     /// Number of modes (without padding).
     pub fn len(&self) -> usize {
         self.len
+    }
+
+    /// Modes the free loop computes now (culled modes at the top left out; padded).
+    pub fn running(&self) -> usize {
+        self.running
+    }
+
+    fn run_all(&mut self) {
+        self.running = self.re.len();
     }
 
     pub fn is_empty(&self) -> bool {
@@ -252,6 +266,7 @@ impl ModalBank {
     pub fn clear(&mut self) {
         self.re.fill(0.0);
         self.im.fill(0.0);
+        self.running = 0;
     }
 
     fn state(&self, i: usize) -> Complex64 {
@@ -259,6 +274,7 @@ impl ModalBank {
     }
 
     fn set_state(&mut self, i: usize, z: Complex64) {
+        self.run_all();
         let zeta = z * self.weight[i];
         self.re[i] = zeta.re;
         self.im[i] = zeta.im;
@@ -297,6 +313,7 @@ impl ModalBank {
     /// Add `gains[i] * dv` to the velocity of every mode i at once, keeping the
     /// displacements (`table` from [`Self::kick_table`] for those gains). Allocates: no.
     pub fn kick(&mut self, table: &[f64], dv: f64) {
+        self.run_all();
         for (im, k) in self.im[..table.len()].iter_mut().zip(table) {
             *im += k * dv;
         }
@@ -305,6 +322,7 @@ impl ModalBank {
     /// Add `input` times the drive's within-step response to the state: moves a
     /// stored state between its "input still to come" and "input applied" forms.
     pub fn apply_ramp(&mut self, drive: &DriveTable, input: f64) {
+        self.run_all();
         for i in 0..self.len {
             self.re[i] += drive.ramp_re[i] * input;
             self.im[i] += drive.ramp_im[i] * input;
@@ -322,6 +340,7 @@ impl ModalBank {
         }
         self.re[common..].fill(0.0);
         self.im[common..].fill(0.0);
+        self.run_all();
     }
 
     /// An upper bound on the bridge force this bank can ever produce freely from
@@ -336,6 +355,44 @@ impl ModalBank {
             }
         }
         lane_sum(&acc)
+    }
+
+    /// Put to rest every mode whose bridge-force amplitude |zeta_n| is below
+    /// `floor_n` (N), and stop computing the modes at rest above the highest one
+    /// still ringing. Returns [`Self::amplitude_bound_n`] and the largest |zeta_n|
+    /// of the modes kept.
+    ///
+    /// Culling is how a ringing key sheds the modes that have decayed far below its
+    /// loudest (high partials die first): what is dropped is below the floor, and
+    /// a mode at rest costs nothing and never becomes subnormal.
+    ///
+    /// Allocates: no. One pass over the running modes.
+    pub fn cull(&mut self, floor_n: f64) -> (f64, f64) {
+        let n = self.running;
+        let (re, _) = self.re[..n].as_chunks_mut::<LANES>();
+        let (im, _) = self.im[..n].as_chunks_mut::<LANES>();
+        let mut bound = [0.0; LANES];
+        let mut loudest = 0.0f64;
+        let mut top = 0;
+        for (g, (r, i)) in re.iter_mut().zip(im.iter_mut()).enumerate() {
+            let mut kept = false;
+            for l in 0..LANES {
+                let magnitude = r[l].abs() + i[l].abs();
+                if magnitude < floor_n {
+                    r[l] = 0.0;
+                    i[l] = 0.0;
+                } else {
+                    bound[l] += magnitude;
+                    loudest = loudest.max(magnitude);
+                    kept = true;
+                }
+            }
+            if kept {
+                top = g + 1;
+            }
+        }
+        self.running = top * LANES;
+        (lane_sum(&bound), loudest)
     }
 
     /// An upper bound on the magnitude of the observation through `drive` (the
@@ -393,11 +450,24 @@ impl ModalBank {
         debug_assert_eq!(step.pole_re.len(), self.re.len());
         for block in out.chunks_mut(FREE_BLOCK) {
             let acc = &mut self.scratch[..block.len()];
-            free_block(&mut self.re, &mut self.im, &step.pole_re, &step.pole_im, acc);
+            acc.fill([0.0; LANES]);
+            let n = self.running;
+            free_block(&mut self.re[..n], &mut self.im[..n], &step.pole_re[..n], &step.pole_im[..n], acc);
             for (o, a) in block.iter_mut().zip(acc.iter()) {
                 *o += lane_sum(a);
             }
         }
+    }
+
+    /// Advance freely over `acc.len()` samples, adding each sample's bridge force
+    /// to `acc` by lane (sum the lanes with [`lane_sum`]): several banks can share
+    /// one accumulator and be summed once.
+    ///
+    /// Allocates: no. Realtime-safe.
+    pub fn accumulate_free(&mut self, step: &StepTable, acc: &mut [[f64; LANES]]) {
+        debug_assert_eq!(step.pole_re.len(), self.re.len());
+        let n = self.running;
+        free_block(&mut self.re[..n], &mut self.im[..n], &step.pole_re[..n], &step.pole_im[..n], acc);
     }
 
     /// One driven step: every mode advances by `step` with the previous step's
@@ -409,6 +479,7 @@ impl ModalBank {
     /// Allocates: no. Realtime-safe.
     pub fn step_driven(&mut self, step: &StepTable, drive: &DriveTable, previous_input: f64) -> (f64, f64) {
         debug_assert_eq!(drive.carry_re.len(), self.re.len());
+        self.run_all();
         driven_step(
             &mut self.re,
             &mut self.im,
@@ -424,6 +495,7 @@ impl ModalBank {
     /// Take back one free step (multiply by 1/p). Exact to rounding; used when a
     /// full step turns out to have run into a contact and must be redone in sub-steps.
     pub fn undo_free_step(&mut self, step: &StepTable) {
+        self.run_all();
         undo_step(&mut self.re, &mut self.im, &step.pole_re, &step.pole_im);
     }
 }
@@ -431,7 +503,7 @@ impl ModalBank {
 /// Sum of an accumulator's lanes in a fixed order (both loops use it, so free and
 /// driven steps give the same bits).
 #[inline(always)]
-fn lane_sum(a: &[f64; LANES]) -> f64 {
+pub fn lane_sum(a: &[f64; LANES]) -> f64 {
     ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
 }
 
@@ -446,27 +518,82 @@ fn lane_sum_all(values: &[f64]) -> f64 {
     lane_sum(&acc)
 }
 
+/// Groups of [`LANES`] modes stepped together in the free loop: each mode's step
+/// depends on its last, so several independent groups must be in flight to keep
+/// the multiply-add units busy through their latency (4 cycles, 2 units: 8).
+const CHAIN: usize = 4;
+
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
-    acc.fill([0.0; LANES]);
     let (re, _) = re.as_chunks_mut::<LANES>();
     let (im, _) = im.as_chunks_mut::<LANES>();
     let (pr, _) = pole_re.as_chunks::<LANES>();
     let (pi, _) = pole_im.as_chunks::<LANES>();
-    for (((zr, zi), pr), pi) in re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi) {
-        let (mut r, mut i) = (*zr, *zi);
-        for a in acc.iter_mut() {
+    let whole = re.len() / CHAIN * CHAIN;
+    let (re_chains, re_rest) = re.split_at_mut(whole);
+    let (im_chains, im_rest) = im.split_at_mut(whole);
+    let (re_chains, _) = re_chains.as_chunks_mut::<CHAIN>();
+    let (im_chains, _) = im_chains.as_chunks_mut::<CHAIN>();
+    let (pr_chains, _) = pr[..whole].as_chunks::<CHAIN>();
+    let (pi_chains, _) = pi[..whole].as_chunks::<CHAIN>();
+    for (((zr, zi), pr), pi) in re_chains.iter_mut().zip(im_chains.iter_mut()).zip(pr_chains).zip(pi_chains) {
+        free_chain(zr, zi, pr, pi, acc);
+    }
+    let (pr, pi) = (&pr[whole..], &pi[whole..]);
+    match re_rest.len() {
+        0 => {}
+        1 => free_chain::<1>(
+            re_rest.try_into().expect("1 group"),
+            im_rest.try_into().expect("1 group"),
+            pr.try_into().expect("1 group"),
+            pi.try_into().expect("1 group"),
+            acc,
+        ),
+        2 => free_chain::<2>(
+            re_rest.try_into().expect("2 groups"),
+            im_rest.try_into().expect("2 groups"),
+            pr.try_into().expect("2 groups"),
+            pi.try_into().expect("2 groups"),
+            acc,
+        ),
+        _ => free_chain::<3>(
+            re_rest.try_into().expect("3 groups"),
+            im_rest.try_into().expect("3 groups"),
+            pr.try_into().expect("3 groups"),
+            pi.try_into().expect("3 groups"),
+            acc,
+        ),
+    }
+}
+
+/// `G` groups of modes over a block of samples, state in registers; each sample's
+/// bridge force is summed over the groups in order and then added to its accumulator.
+#[inline(always)]
+fn free_chain<const G: usize>(
+    re: &mut [[f64; LANES]; G],
+    im: &mut [[f64; LANES]; G],
+    pr: &[[f64; LANES]; G],
+    pi: &[[f64; LANES]; G],
+    acc: &mut [[f64; LANES]],
+) {
+    let (mut r, mut i) = (*re, *im);
+    for a in acc.iter_mut() {
+        let mut sum = [0.0; LANES];
+        for g in 0..G {
             for l in 0..LANES {
-                let nr = pr[l].mul_add(r[l], -(pi[l] * i[l]));
-                let ni = pr[l].mul_add(i[l], pi[l] * r[l]);
-                r[l] = nr;
-                i[l] = ni;
-                a[l] += nr;
+                let nr = pr[g][l].mul_add(r[g][l], -(pi[g][l] * i[g][l]));
+                let ni = pr[g][l].mul_add(i[g][l], pi[g][l] * r[g][l]);
+                r[g][l] = nr;
+                i[g][l] = ni;
+                sum[l] += nr;
             }
         }
-        *zr = r;
-        *zi = i;
+        for l in 0..LANES {
+            a[l] += sum[l];
+        }
     }
+    *re = r;
+    *im = i;
 }
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
@@ -490,15 +617,26 @@ fn driven_step(
     let (er, _) = carry_re.as_chunks::<LANES>();
     let (ei, _) = carry_im.as_chunks::<LANES>();
     let (c, _) = observe.as_chunks::<LANES>();
-    for ((((((zr, zi), pr), pi), er), ei), c) in re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi).zip(er).zip(ei).zip(c)
+    // The bridge force is summed as the free loop sums it: within each chain of
+    // groups first, so an idle exciter gives the same bits as no exciter.
+    let last = re.len().saturating_sub(1);
+    let mut sum = [0.0; LANES];
+    for (g, ((((((zr, zi), pr), pi), er), ei), c)) in
+        re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi).zip(er).zip(ei).zip(c).enumerate()
     {
         for l in 0..LANES {
             let nr = er[l].mul_add(input, pr[l].mul_add(zr[l], -(pi[l] * zi[l])));
             let ni = ei[l].mul_add(input, pr[l].mul_add(zi[l], pi[l] * zr[l]));
             zr[l] = nr;
             zi[l] = ni;
-            bridge[l] += nr;
+            sum[l] += nr;
             obs[l] = c[l].mul_add(nr, obs[l]);
+        }
+        if g % CHAIN == CHAIN - 1 || g == last {
+            for l in 0..LANES {
+                bridge[l] += sum[l];
+            }
+            sum = [0.0; LANES];
         }
     }
     (lane_sum(&obs), lane_sum(&bridge))
@@ -633,5 +771,50 @@ mod tests {
             let exact = w * (-sigma * t).exp() * ((wd * t).cos() + sigma / wd * (wd * t).sin());
             assert!((o - exact).abs() < 1e-11 * w, "{k}");
         }
+    }
+
+    #[test]
+    fn culling_rests_quiet_modes_and_stops_computing_above_the_loudest() {
+        let string = StringSpec {
+            length_m: 0.62,
+            tuning: Tuning::TensionN(670.0),
+            mass: Mass::PerLengthKgM(0.00634),
+            stiffness: Stiffness::Inharmonicity(3.8e-4),
+            damping: Damping::UniformQ(2000.0),
+            max_frequency_hz: 20_000.0,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap();
+        let step = StepTable::new(&string, 1.0 / 48_000.0);
+        let mut bank = ModalBank::new(&string);
+        assert_eq!(bank.running(), 0, "a bank at rest computes nothing");
+        let n = bank.len();
+        assert!(n > 3 * LANES);
+        // Modes 0 and 2 loud, mode 5 quiet, the rest silent.
+        bank.add_velocity(0, 1.0);
+        bank.add_velocity(2, 0.5);
+        bank.add_velocity(5, 1e-9);
+        assert_eq!(bank.running(), n.div_ceil(LANES) * LANES);
+        let before = bank.amplitude_bound_n();
+        let floor = 1e-6 * before;
+        let (bound, loudest) = bank.cull(floor);
+        assert_eq!(bank.running(), LANES, "only the first group still rings");
+        assert_eq!((bank.displacement(5), bank.velocity(5)), (0.0, 0.0));
+        assert!(bank.velocity(2) > 0.0);
+        assert!(bound <= before && bound > 0.99 * before);
+        assert!(loudest > 0.5 * bound);
+        // The free loop over the running modes gives what the whole bank would.
+        let mut whole = bank.clone();
+        whole.run_all();
+        let (mut a, mut b) = (vec![0.0; 100], vec![0.0; 100]);
+        bank.process_free(&step, &mut a);
+        whole.process_free(&step, &mut b);
+        assert_eq!(a, b);
+        // Anything that moves the modes brings them all back.
+        bank.add_velocity(n - 1, 1.0);
+        assert_eq!(bank.running(), n.div_ceil(LANES) * LANES);
+        bank.clear();
+        assert_eq!(bank.running(), 0);
     }
 }

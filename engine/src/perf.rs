@@ -2,13 +2,15 @@
 //! any size and for a string while a hammer is on it. `struck bench` prints
 //! these; the criterion benchmark times the same workloads.
 
+pub mod workload;
+
 use std::f64::consts::PI;
 use std::time::{Duration, Instant};
 
 use crate::contact::ContactLaw;
 use crate::damping::Damping;
 use crate::hammer::HammerSpec;
-use crate::modal_bank::{ModalBank, StepTable};
+use crate::modal_bank::{LANES, ModalBank, StepTable};
 use crate::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
@@ -178,4 +180,40 @@ pub fn synth_throughput(kind: crate::instrument::InstrumentKind, audio_s: f64) -
     }
     let elapsed = start.elapsed().as_secs_f64();
     SynthThroughput { real_time_factor: blocks as f64 * BLOCK as f64 / 48_000.0 / elapsed, max_keys, build_s }
+}
+
+/// Independent multiply-add chains in the probe: enough to cover the latency of
+/// every FMA unit (4 cycles x 2 units x a margin).
+const PROBE_CHAINS: usize = 12;
+
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn fma_chains(rounds: usize, x: f64, y: f64) -> [[f64; LANES]; PROBE_CHAINS] {
+    let mut acc = [[0.0; LANES]; PROBE_CHAINS];
+    for (c, chain) in acc.iter_mut().enumerate() {
+        for (l, a) in chain.iter_mut().enumerate() {
+            *a = (c * LANES + l) as f64 * 1e-3;
+        }
+    }
+    for _ in 0..rounds {
+        for chain in acc.iter_mut() {
+            for a in chain.iter_mut() {
+                *a = a.mul_add(x, y);
+            }
+        }
+    }
+    acc
+}
+
+/// The machine's multiply-add throughput on this thread, f64 multiply-adds per
+/// second, at the widest vectors the kernels are compiled for (the same dispatch).
+pub fn fma_probe(min_time: Duration) -> f64 {
+    const ROUNDS: usize = 100_000;
+    let (x, y) = std::hint::black_box((0.999_999, 1e-9));
+    let mut fmas = 0usize;
+    let start = Instant::now();
+    while start.elapsed() < min_time {
+        std::hint::black_box(fma_chains(ROUNDS, x, y));
+        fmas += ROUNDS * PROBE_CHAINS * LANES;
+    }
+    fmas as f64 / start.elapsed().as_secs_f64()
 }

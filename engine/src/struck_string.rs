@@ -29,7 +29,7 @@
 
 use crate::contact::ContactStep;
 use crate::hammer::{Hammer, HammerSpec};
-use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
+use crate::modal_bank::{DriveTable, Hold, LANES, ModalBank, StepTable};
 use crate::pluck::PluckSpec;
 use crate::residual;
 use crate::string::StringModes;
@@ -518,6 +518,15 @@ impl StruckString {
         self.bank.amplitude_bound_n()
     }
 
+    /// Put to rest the modes below `floor_n` once the string is free or held by a
+    /// resting tangent ([`ModalBank::cull`]); returns the amplitude bound and the
+    /// loudest mode's amplitude, N.
+    ///
+    /// Allocates: no.
+    pub fn cull(&mut self, floor_n: f64) -> (f64, f64) {
+        if self.is_settled() { self.bank.cull(floor_n) } else { (self.bank.amplitude_bound_n(), f64::INFINITY) }
+    }
+
     /// Whether nothing but free decay lies ahead: no exciter, or a tangent at rest.
     pub fn is_settled(&self) -> bool {
         match self.exciter {
@@ -563,6 +572,24 @@ impl StruckString {
             // A tangent at rest only holds the end up: a free step plus its static lift.
             Exciter::Tangent if self.tangent.remaining == 0.0 => {
                 self.bank.process_free(&self.audio, out);
+                let line = self.string.tension_n * self.tangent.to_m / self.string.length_m;
+                out.iter_mut().for_each(|o| *o += line);
+            }
+            _ => return false,
+        }
+        true
+    }
+
+    /// [`Self::process_free`] into a shared accumulator ([`ModalBank::accumulate_free`]):
+    /// the modes' bridge force goes to `acc` by lane, a resting tangent's static
+    /// lift to `out` (`acc` and `out` the same length).
+    ///
+    /// Allocates: no.
+    pub fn accumulate_free(&mut self, acc: &mut [[f64; LANES]], out: &mut [f64]) -> bool {
+        match self.exciter {
+            Exciter::None => self.bank.accumulate_free(&self.audio, acc),
+            Exciter::Tangent if self.tangent.remaining == 0.0 => {
+                self.bank.accumulate_free(&self.audio, acc);
                 let line = self.string.tension_n * self.tangent.to_m / self.string.length_m;
                 out.iter_mut().for_each(|o| *o += line);
             }

@@ -11,10 +11,13 @@ use std::ops::Range;
 use crate::contact::ContactLaw;
 use crate::hammer::HammerSpec;
 use crate::instrument::{DamperDesign, ExciterDesign, KeyDesign};
+use crate::modal_bank::{LANES, lane_sum};
 use crate::pluck::PluckSpec;
 use crate::string::StringError;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 use crate::tangent::{self, TangentSpec};
+
+use super::CONTROL_BLOCK;
 
 /// Time constant of a tangent falling back from the strings when the key comes up, s.
 const TANGENT_LIFT_S: f64 = 0.002;
@@ -26,6 +29,13 @@ const HAMMER_GONE_AFTER_S: f64 = 0.03;
 /// Una corda: the hammer meets the strings with its less worn, softer felt. The
 /// factor on K is our assumption (the physics reference has no measurement of it).
 const UNA_CORDA_STIFFNESS: f64 = 0.5;
+/// A ringing key stops computing the modes that have fallen this far below its
+/// loudest (-120 dB; high partials die first, and a key's strings ring for
+/// tens of seconds after them)...
+const CULL_BELOW_LOUDEST: f64 = 1e-6;
+/// ... or below this fraction of the silence threshold (-40 dB under it: a mode
+/// there adds nothing a listener or the key's switch-off could notice).
+const CULL_FLOOR: f64 = 1e-2;
 /// Most notes one course can have (they are kept as bits).
 pub(super) const MAX_NOTES: usize = 32;
 /// Time constant smoothing the finger's pressure on a tangent (aftertouch), s: a
@@ -57,6 +67,8 @@ pub(super) struct Key {
     bridge_force_n: Vec<f64>,
     /// Scratch for this sample's forces.
     force_now_n: Vec<f64>,
+    /// The free strings' bridge force by lane, for a control block.
+    lanes: Box<[[f64; LANES]; CONTROL_BLOCK]>,
     pub gain_per_n: f64,
     /// Constant-power pan gains.
     pub pan_left: f64,
@@ -84,6 +96,8 @@ pub(super) struct Key {
     pub fade_step: f64,
     /// Upper bound on the key's output at the last control tick (full scale = 1).
     pub level: f64,
+    /// The loudest mode of its strings at the last control tick, N (0 while one is played).
+    loudest_n: f64,
 }
 
 impl Key {
@@ -126,6 +140,7 @@ impl Key {
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
             force_now_n: vec![0.0; design.strings.len()],
+            lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
             pan_left: angle.cos() * std::f64::consts::SQRT_2,
             pan_right: angle.sin() * std::f64::consts::SQRT_2,
@@ -143,12 +158,23 @@ impl Key {
             fade: 1.0,
             fade_step: 0.0,
             level: 0.0,
+            loudest_n: 0.0,
         })
     }
 
     /// The MIDI keys that play this course, with their note numbers.
     pub fn note_keys(&self) -> impl Iterator<Item = (usize, u8)> + '_ {
         self.notes.iter().enumerate().map(|(i, n)| (i, n.midi_key))
+    }
+
+    /// Modes of all the course's strings.
+    pub fn mode_count(&self) -> usize {
+        self.strings.iter().map(|s| s.bank().len()).sum()
+    }
+
+    /// Modes being computed now (culled modes left out).
+    pub fn running_modes(&self) -> usize {
+        self.strings.iter().map(|s| s.bank().running()).sum()
     }
 
     /// Whether any of the course's keys is down.
@@ -315,13 +341,19 @@ impl Key {
         }
         let mut settled = true;
         let mut bound = 0.0;
+        let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
+        let mut loudest_n = 0.0f64;
         for s in &mut self.strings {
             if s.hammer_gone(HAMMER_GONE_GAP_M, HAMMER_GONE_AFTER_S) {
                 s.release_exciter();
             }
             settled &= s.is_settled();
-            bound += s.amplitude_bound_n();
+            let (string_bound, string_loudest) = s.cull(floor_n);
+            bound += string_bound;
+            loudest_n = loudest_n.max(string_loudest);
         }
+        // A string still being played reports an infinite loudest: no relative culling next time.
+        self.loudest_n = if loudest_n.is_finite() { loudest_n } else { 0.0 };
         self.level = bound * self.gain_per_n * self.fade;
         if settled && self.level < silence {
             self.silence();
@@ -358,6 +390,7 @@ impl Key {
         self.fade = 1.0;
         self.fade_step = 0.0;
         self.level = 0.0;
+        self.loudest_n = 0.0;
     }
 
     /// Add the key's summed bridge force (N) over `out.len()` samples to `out`,
@@ -367,8 +400,10 @@ impl Key {
             self.render_coupled(out, contact);
             return;
         }
+        let acc = &mut self.lanes[..out.len()];
+        acc.fill([0.0; LANES]);
         for s in &mut self.strings {
-            if contact.is_none() && s.process_free(out) {
+            if contact.is_none() && s.accumulate_free(acc, out) {
                 continue;
             }
             for (t, o) in out.iter_mut().enumerate() {
@@ -378,6 +413,9 @@ impl Key {
                     c[t] += tick.contact_force_n as f32;
                 }
             }
+        }
+        for (o, a) in out.iter_mut().zip(acc.iter()) {
+            *o += lane_sum(a);
         }
     }
 

@@ -180,6 +180,11 @@ impl Instrument {
         self.keys.iter().flatten().filter(|k| k.active)
     }
 
+    /// Modes of every string of every key (below [`MAX_MODE_FREQUENCY_HZ`]).
+    pub fn mode_count(&self) -> usize {
+        self.keys.iter().flatten().map(Key::mode_count).sum()
+    }
+
     /// The course `midi_key` plays and its note there.
     fn route(&mut self, midi_key: u8) -> Option<(&mut Key, usize)> {
         let (home, note) = (*self.route.get(midi_key as usize)?)?;
@@ -296,6 +301,17 @@ impl Synth {
     /// Keys sounding now (the outgoing instrument's included).
     pub fn active_keys(&self) -> usize {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
+    }
+
+    /// Modes the sounding keys are computing now (culled modes left out).
+    pub fn running_modes(&self) -> usize {
+        let outgoing = self.outgoing.as_ref().map_or(0, |o| o.active_keys().map(Key::running_modes).sum());
+        self.current.active_keys().map(Key::running_modes).sum::<usize>() + outgoing
+    }
+
+    /// The instrument now playing.
+    pub fn instrument(&self) -> &Instrument {
+        &self.current
     }
 
     /// Whether the strings `midi_key` plays on the instrument now playing are sounding.

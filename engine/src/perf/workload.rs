@@ -1,0 +1,225 @@
+//! The speed goals' workloads, played through the real-time [`Synth`] exactly as
+//! a host would: 48 kHz, 64-sample blocks, one thread.
+//!
+//! - The full keyboard: every piano key struck (one per block, bottom to top)
+//!   and held with the sustain pedal down; halfway through, a 10-key chord is
+//!   struck on one sample; then every key and the pedal come up.
+//! - A 32-key chord held for 10 s, rendered offline (512-sample blocks).
+//! - Silence: the piano with nothing played.
+//!
+//! Every block is timed. A shared machine interrupts a run now and then, so each
+//! workload runs several times and each block keeps its fastest time (the work
+//! is the same on every run: the synth is deterministic); a load is the fastest
+//! run's total over the audio's duration.
+
+use std::time::Instant;
+
+use crate::instrument::InstrumentKind;
+use crate::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+
+pub const SAMPLE_RATE_HZ: f64 = 48_000.0;
+/// The host's block, samples.
+pub const BLOCK: usize = 64;
+/// MIDI velocity 102, as a fraction.
+pub const VELOCITY: f32 = 102.0 / 127.0;
+/// The 10-key chord struck into the ringing keyboard: C3 E3 G3 C4 E4 G4 C5 E5 G5 C6.
+pub const CHORD10: [u8; 10] = [48, 52, 55, 60, 64, 67, 72, 76, 79, 84];
+/// Where in its block the 10-key chord lands (any sample: not on a boundary).
+const CHORD10_OFFSET: u32 = 17;
+/// The comparison chord: C2 plus these intervals, then the same an octave and
+/// two octaves up; the first 32 notes are played.
+pub const CHORD32_INTERVALS: [u8; 12] = [0, 7, 12, 16, 19, 24, 28, 31, 36, 40, 43, 48];
+const C2: u8 = 36;
+const OFFLINE_BLOCK: usize = 512;
+
+/// The 32 notes of the comparison chord (some keys twice: a key struck twice on
+/// one sample is struck once).
+pub fn chord32() -> Vec<u8> {
+    (0..3).flat_map(|octave| CHORD32_INTERVALS.map(|i| C2 + 12 * octave + i)).take(32).collect()
+}
+
+/// Per-block times of one workload, fastest over the runs.
+struct Timings {
+    block_s: Vec<f64>,
+    total_s: f64,
+}
+
+impl Timings {
+    fn merge(&mut self, run: Vec<f64>) {
+        let total: f64 = run.iter().sum();
+        if self.block_s.is_empty() {
+            self.block_s = run;
+            self.total_s = total;
+            return;
+        }
+        for (best, t) in self.block_s.iter_mut().zip(run) {
+            *best = best.min(t);
+        }
+        self.total_s = self.total_s.min(total);
+    }
+}
+
+fn piano(polyphony: usize) -> Synth {
+    let instrument =
+        Instrument::build(&default_settings(InstrumentKind::Piano, SAMPLE_RATE_HZ)).expect("the built-in piano builds");
+    let (mut synth, _scope) = Synth::new(Box::new(instrument));
+    synth.set_controls(Controls { polyphony, ..Controls::default() });
+    synth
+}
+
+/// What the full-keyboard workload measured. Fractions are of one core (a
+/// block's time over its period).
+#[derive(Clone, Copy, Debug)]
+pub struct KeyboardRun {
+    /// Modes of all 88 keys, every unison string, every mode below 20 kHz.
+    pub modes: usize,
+    /// Mean number of modes computed while the keys were held (after culling).
+    pub running_modes_mean: f64,
+    /// Load from the first strike until the keys come up.
+    pub load_fraction: f64,
+    /// Slowest block in that time (the 10-key chord's included).
+    pub worst_block_fraction: f64,
+    /// Slowest block while the 10-key chord's hammers are on the strings.
+    pub chord_block_fraction: f64,
+    /// Load over the seconds after every key and the pedal came up.
+    pub after_release_load_fraction: f64,
+    /// Slowest block in that time.
+    pub after_release_worst_block_fraction: f64,
+    /// Keys still sounding at the end, and how long after the release the last fell silent, s.
+    pub keys_left: usize,
+    pub silent_after_s: Option<f64>,
+    /// Seconds held, and seconds after the release.
+    pub held_s: f64,
+    pub release_s: f64,
+}
+
+/// The full keyboard held for `held_s` seconds, then released for `release_s`,
+/// fastest block of `runs` runs.
+pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize) -> KeyboardRun {
+    let period_s = BLOCK as f64 / SAMPLE_RATE_HZ;
+    let held_blocks = ((held_s / period_s).ceil() as usize).max(2 * 88);
+    let release_blocks = ((release_s / period_s).ceil() as usize).max(1);
+    let chord_block = held_blocks / 2;
+    let keys: Vec<u8> = InstrumentKind::Piano.key_range().collect();
+    let mut timings = Timings { block_s: Vec::new(), total_s: 0.0 };
+    let mut modes = 0;
+    let mut running_sum = 0.0;
+    let mut silent_at = None;
+    let mut keys_left = 0;
+    let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+    let mut events = Vec::with_capacity(128);
+    for run in 0..runs.max(1) {
+        let mut synth = piano(128);
+        modes = synth.instrument().mode_count();
+        let mut times = Vec::with_capacity(held_blocks + release_blocks);
+        for b in 0..held_blocks + release_blocks {
+            events.clear();
+            if b == 0 {
+                events.push(TimedEvent::new(0, Event::Sustain(1.0)));
+            }
+            if let Some(&key) = keys.get(b) {
+                events.push(TimedEvent::new(0, Event::NoteOn { key, velocity: VELOCITY }));
+            }
+            if b == chord_block {
+                events.extend(
+                    CHORD10.map(|key| TimedEvent::new(CHORD10_OFFSET, Event::NoteOn { key, velocity: VELOCITY })),
+                );
+            }
+            if b == held_blocks {
+                events.extend(keys.iter().map(|&key| TimedEvent::new(0, Event::NoteOff { key })));
+                events.push(TimedEvent::new(0, Event::Sustain(0.0)));
+            }
+            let start = Instant::now();
+            synth.process(&events, &mut left, &mut right);
+            times.push(start.elapsed().as_secs_f64());
+            if run == 0 {
+                if b < held_blocks {
+                    running_sum += synth.running_modes() as f64;
+                }
+                if b >= held_blocks && silent_at.is_none() && synth.active_keys() == 0 {
+                    silent_at = Some((b + 1 - held_blocks) as f64 * period_s);
+                }
+            }
+        }
+        if run == 0 {
+            keys_left = synth.active_keys();
+        }
+        timings.merge(times);
+    }
+    let blocks = &timings.block_s;
+    let worst = |range: std::ops::Range<usize>| blocks[range].iter().copied().fold(0.0, f64::max) / period_s;
+    let mean = |range: std::ops::Range<usize>| {
+        let n = range.len() as f64;
+        blocks[range].iter().sum::<f64>() / (n * period_s)
+    };
+    let held = 0..held_blocks;
+    let after = held_blocks..held_blocks + release_blocks;
+    KeyboardRun {
+        modes,
+        running_modes_mean: running_sum / held_blocks as f64,
+        load_fraction: mean(held.clone()),
+        worst_block_fraction: worst(held),
+        // The chord's contacts last a few milliseconds: a few blocks.
+        chord_block_fraction: worst(chord_block..chord_block + 8),
+        after_release_load_fraction: mean(after.clone()),
+        after_release_worst_block_fraction: worst(after),
+        keys_left,
+        silent_after_s: silent_at,
+        held_s: held_blocks as f64 * period_s,
+        release_s: release_blocks as f64 * period_s,
+    }
+}
+
+/// Offline render speed of the 32-note chord held for `held_s`: seconds of audio
+/// per second of computing, fastest of `runs`. Also returns how many keys it sounds.
+pub fn chord32_realtime_factor(held_s: f64, runs: usize) -> (f64, usize) {
+    let blocks = (held_s * SAMPLE_RATE_HZ / OFFLINE_BLOCK as f64).ceil() as usize;
+    let (mut left, mut right) = (vec![0.0f32; OFFLINE_BLOCK], vec![0.0f32; OFFLINE_BLOCK]);
+    let notes: Vec<TimedEvent> =
+        chord32().into_iter().map(|key| TimedEvent::new(0, Event::NoteOn { key, velocity: VELOCITY })).collect();
+    let mut best = f64::INFINITY;
+    let mut keys = 0;
+    for _ in 0..runs.max(1) {
+        let mut synth = piano(64);
+        let start = Instant::now();
+        for b in 0..blocks {
+            let events = if b == 0 { &notes[..] } else { &[] };
+            synth.process(events, &mut left, &mut right);
+            if b == 0 {
+                keys = synth.active_keys();
+            }
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    (blocks as f64 * OFFLINE_BLOCK as f64 / SAMPLE_RATE_HZ / best, keys)
+}
+
+/// Load of the piano with nothing played, over `audio_s`, fastest of `runs`.
+pub fn idle_load(audio_s: f64, runs: usize) -> f64 {
+    let blocks = ((audio_s * SAMPLE_RATE_HZ / BLOCK as f64).ceil() as usize).max(1);
+    let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+    let mut best = f64::INFINITY;
+    for _ in 0..runs.max(1) {
+        let mut synth = piano(64);
+        let start = Instant::now();
+        for _ in 0..blocks {
+            synth.process(&[], &mut left, &mut right);
+        }
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    best / (blocks as f64 * BLOCK as f64 / SAMPLE_RATE_HZ)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_comparison_chord_is_the_published_one() {
+        let chord = chord32();
+        assert_eq!(chord.len(), 32);
+        assert_eq!(&chord[..12], &[36, 43, 48, 52, 55, 60, 64, 67, 72, 76, 79, 84]);
+        assert_eq!(&chord[24..], &[60, 67, 72, 76, 79, 84, 88, 91]);
+        assert!(chord.iter().all(|k| InstrumentKind::Piano.key_range().contains(k)));
+    }
+}

@@ -91,35 +91,63 @@ impl ContactLaw {
         }
     }
 
+    /// The felt at compression `compression_m`: where a step's solve starts.
+    pub fn felt(&self, compression_m: f64) -> Felt {
+        let (force_n, energy_j) = self.force_and_energy(compression_m);
+        Felt { compression_m, force_n, energy_j }
+    }
+
     /// Solve one step: compression `c0` at its start, `c_hat` at its end had the
     /// force been zero, `w` the compliance to the step's force.
     pub fn solve(&self, c0: f64, c_hat: f64, w: f64) -> ContactStep {
+        self.step(self.felt(c0), c_hat, w).0
+    }
+
+    /// [`Self::solve`] from the felt as the last step left it, returning the felt
+    /// at the end of this step too: a strike's steps chain without recomputing
+    /// the power at each step's start.
+    ///
+    /// Newton's method on g, which is increasing and convex, lands at or above the
+    /// root from any start and then descends to it monotonically; so the lower end
+    /// of the bracket (one more power) is only worked out if rounding ever sends
+    /// an iterate outside.
+    pub fn step(&self, start: Felt, c_hat: f64, w: f64) -> (ContactStep, Felt) {
+        let Felt { compression_m: c0, force_n: f0, energy_j: e0 } = start;
         if c0 <= 0.0 && c_hat <= 0.0 {
-            return ContactStep { compression_m: c_hat, step_force_n: 0.0, iterations: 0 };
+            let end = Felt { compression_m: c_hat, force_n: 0.0, energy_j: 0.0 };
+            return (ContactStep { compression_m: c_hat, step_force_n: 0.0, iterations: 0 }, end);
         }
-        let (f0, e0) = self.force_and_energy(c0);
-        // The mean force between c0 and c, and its derivative with respect to c.
-        let mean = |c: f64| -> (f64, f64) {
+        let per_exponent = 1.0 / (self.exponent + 1.0);
+        // The felt at the last point where g was evaluated away from c0 (the end state, once converged).
+        let mut last = None;
+        // The mean force between c0 and c, its derivative with respect to c, and
+        // 1 / |c - c0| (held at 1 / (NEAR c) near c0) for the convergence floor.
+        let mut mean = |c: f64| -> (f64, f64, f64) {
             let scale = c0.abs().max(c.abs());
             if (c - c0).abs() <= NEAR * scale {
                 let (f, slope) = self.force_and_slope(0.5 * (c0 + c));
-                (f, 0.5 * slope)
+                last = None;
+                (f, 0.5 * slope, 1.0 / (NEAR * scale))
             } else {
-                let (f, e) = self.force_and_energy(c);
-                let q = (e - e0) / (c - c0);
-                (q, (f - q) / (c - c0))
+                let f = if c > 0.0 { self.stiffness * c.powf(self.exponent) } else { 0.0 };
+                let e = f * c.max(0.0) * per_exponent;
+                last = Some(Felt { compression_m: c, force_n: f, energy_j: e });
+                let per_gap = 1.0 / (c - c0);
+                let q = (e - e0) * per_gap;
+                (q, (f - q) * per_gap, per_gap.abs())
             }
         };
         let mut hi = c_hat;
-        let mut lo = c_hat - w * f0.max(self.force_n(c_hat));
+        let mut lo = f64::NEG_INFINITY;
+        let mut lo_known = false;
         // First guess: one Newton step from c0, where the mean force is F(c0).
-        let (_, slope0) = self.force_and_slope(c0);
-        let mut c = (c0 - (c0 - c_hat + w * f0) / (1.0 + 0.5 * w * slope0)).clamp(lo, hi);
+        let slope0 = if c0 > 0.0 { self.exponent * f0 / c0 } else { 0.0 };
+        let mut c = (c0 - (c0 - c_hat + w * f0) / (1.0 + 0.5 * w * slope0)).min(hi);
         let mut q = 0.0;
         let mut iterations = 0;
         for iteration in 0.. {
             iterations = iteration + 1;
-            let (mean_force, dq) = mean(c);
+            let (mean_force, dq, per_gap) = mean(c);
             q = mean_force;
             let g = c - c_hat + w * q;
             if g > 0.0 {
@@ -135,18 +163,34 @@ impl ContactLaw {
             // cannot be known better than eps (C + W Q C / |C - C0|). (Checked before
             // the bracket, which a step smaller than an ulp would seem to leave.)
             let scale = c.abs().max(c0.abs());
-            let floor = 4.0 * f64::EPSILON * scale * (1.0 + w * q.abs() / (c - c0).abs().max(NEAR * scale));
+            let floor = 4.0 * f64::EPSILON * scale * (1.0 + w * q.abs() * per_gap);
             if step.abs() <= floor || iteration == MAX_ITERATIONS {
                 break;
             }
             let mut next = c - step;
+            if !(next > lo && next < hi) && !lo_known {
+                lo = lo.max(c_hat - w * f0.max(self.force_n(c_hat)));
+                lo_known = true;
+            }
             if !(next > lo && next < hi) {
                 next = 0.5 * (lo + hi);
             }
             c = next;
         }
-        ContactStep { compression_m: c, step_force_n: q, iterations }
+        let end = match last {
+            Some(felt) if felt.compression_m == c => felt,
+            _ => self.felt(c),
+        };
+        (ContactStep { compression_m: c, step_force_n: q, iterations }, end)
     }
+}
+
+/// The felt's state at one compression (force and stored energy there).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Felt {
+    pub compression_m: f64,
+    pub force_n: f64,
+    pub energy_j: f64,
 }
 
 #[cfg(test)]

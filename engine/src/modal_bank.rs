@@ -39,6 +39,9 @@ use num_complex::Complex64;
 
 use crate::string::StringModes;
 
+#[cfg(target_arch = "x86_64")]
+mod x86;
+
 /// Modes per group in the inner loops (one AVX-512 register, two AVX2 registers of f64).
 pub const LANES: usize = 8;
 
@@ -480,6 +483,32 @@ impl ModalBank {
     pub fn step_driven(&mut self, step: &StepTable, drive: &DriveTable, previous_input: f64) -> (f64, f64) {
         debug_assert_eq!(drive.carry_re.len(), self.re.len());
         self.run_all();
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx512 = is_x86_feature_detected!("avx512f");
+            if avx512 || (is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+                let slices = x86::Driven {
+                    re: &mut self.re,
+                    im: &mut self.im,
+                    pole_re: &step.pole_re,
+                    pole_im: &step.pole_im,
+                    carry_re: &drive.carry_re,
+                    carry_im: &drive.carry_im,
+                    observe: &drive.observe,
+                };
+                // SAFETY: the features each kernel is compiled for were detected just above.
+                let result = unsafe {
+                    if avx512 {
+                        x86::driven_avx512(slices, previous_input)
+                    } else {
+                        x86::driven_avx2(slices, previous_input)
+                    }
+                };
+                if let Some(result) = result {
+                    return result;
+                }
+            }
+        }
         driven_step(
             &mut self.re,
             &mut self.im,
@@ -521,7 +550,7 @@ fn lane_sum_all(values: &[f64]) -> f64 {
 /// Groups of [`LANES`] modes stepped together in the free loop: each mode's step
 /// depends on its last, so several independent groups must be in flight to keep
 /// the multiply-add units busy through their latency (4 cycles, 2 units: 8).
-const CHAIN: usize = 4;
+pub(crate) const CHAIN: usize = 4;
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
@@ -608,8 +637,6 @@ fn driven_step(
     observe: &[f64],
     input: f64,
 ) -> (f64, f64) {
-    let mut obs = [0.0; LANES];
-    let mut bridge = [0.0; LANES];
     let (re, _) = re.as_chunks_mut::<LANES>();
     let (im, _) = im.as_chunks_mut::<LANES>();
     let (pr, _) = pole_re.as_chunks::<LANES>();
@@ -617,29 +644,104 @@ fn driven_step(
     let (er, _) = carry_re.as_chunks::<LANES>();
     let (ei, _) = carry_im.as_chunks::<LANES>();
     let (c, _) = observe.as_chunks::<LANES>();
-    // The bridge force is summed as the free loop sums it: within each chain of
-    // groups first, so an idle exciter gives the same bits as no exciter.
-    let last = re.len().saturating_sub(1);
-    let mut sum = [0.0; LANES];
-    for (g, ((((((zr, zi), pr), pi), er), ei), c)) in
-        re.iter_mut().zip(im.iter_mut()).zip(pr).zip(pi).zip(er).zip(ei).zip(c).enumerate()
+    let groups = re.len();
+    if im.len() < groups
+        || pr.len() < groups
+        || pi.len() < groups
+        || er.len() < groups
+        || ei.len() < groups
+        || c.len() < groups
     {
+        return (0.0, 0.0);
+    }
+    let mut sums = DrivenSums { obs: [[0.0; LANES]; CHAIN], bridge: [0.0; LANES], input };
+    let mut g = 0;
+    while g + CHAIN <= groups {
+        let j = g..g + CHAIN;
+        driven_chain::<CHAIN>(
+            (&mut re[j.clone()]).try_into().expect("a chain"),
+            (&mut im[j.clone()]).try_into().expect("a chain"),
+            (&pr[j.clone()]).try_into().expect("a chain"),
+            (&pi[j.clone()]).try_into().expect("a chain"),
+            (&er[j.clone()]).try_into().expect("a chain"),
+            (&ei[j.clone()]).try_into().expect("a chain"),
+            (&c[j]).try_into().expect("a chain"),
+            &mut sums,
+        );
+        g += CHAIN;
+    }
+    macro_rules! rest {
+        ($n:literal) => {
+            driven_chain::<$n>(
+                (&mut re[g..]).try_into().expect("the rest"),
+                (&mut im[g..groups]).try_into().expect("the rest"),
+                (&pr[g..groups]).try_into().expect("the rest"),
+                (&pi[g..groups]).try_into().expect("the rest"),
+                (&er[g..groups]).try_into().expect("the rest"),
+                (&ei[g..groups]).try_into().expect("the rest"),
+                (&c[g..groups]).try_into().expect("the rest"),
+                &mut sums,
+            )
+        };
+    }
+    match groups - g {
+        0 => {}
+        1 => rest!(1),
+        2 => rest!(2),
+        _ => rest!(3),
+    }
+    let mut observed = [0.0; LANES];
+    for o in &sums.obs {
         for l in 0..LANES {
-            let nr = er[l].mul_add(input, pr[l].mul_add(zr[l], -(pi[l] * zi[l])));
-            let ni = ei[l].mul_add(input, pr[l].mul_add(zi[l], pi[l] * zr[l]));
-            zr[l] = nr;
-            zi[l] = ni;
-            sum[l] += nr;
-            obs[l] = c[l].mul_add(nr, obs[l]);
-        }
-        if g % CHAIN == CHAIN - 1 || g == last {
-            for l in 0..LANES {
-                bridge[l] += sum[l];
-            }
-            sum = [0.0; LANES];
+            observed[l] += o[l];
         }
     }
-    (lane_sum(&obs), lane_sum(&bridge))
+    (lane_sum(&observed), lane_sum(&sums.bridge))
+}
+
+/// What a driven step sums, and its input.
+struct DrivenSums {
+    /// One observation accumulator per group of a chain (no chain of dependent multiply-adds).
+    obs: [[f64; LANES]; CHAIN],
+    /// The bridge force, summed as the free loop sums it (within each chain first),
+    /// so an idle exciter gives the same bits as none.
+    bridge: [f64; LANES],
+    input: f64,
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn driven_chain<const G: usize>(
+    re: &mut [[f64; LANES]; G],
+    im: &mut [[f64; LANES]; G],
+    pr: &[[f64; LANES]; G],
+    pi: &[[f64; LANES]; G],
+    er: &[[f64; LANES]; G],
+    ei: &[[f64; LANES]; G],
+    c: &[[f64; LANES]; G],
+    sums: &mut DrivenSums,
+) {
+    let input = sums.input;
+    let (mut r, mut i) = (*re, *im);
+    let mut obs = [[0.0; LANES]; G];
+    obs.copy_from_slice(&sums.obs[..G]);
+    let mut sum = [0.0; LANES];
+    for g in 0..G {
+        for l in 0..LANES {
+            let nr = er[g][l].mul_add(input, pr[g][l].mul_add(r[g][l], -(pi[g][l] * i[g][l])));
+            let ni = ei[g][l].mul_add(input, pr[g][l].mul_add(i[g][l], pi[g][l] * r[g][l]));
+            r[g][l] = nr;
+            i[g][l] = ni;
+            sum[l] += nr;
+            obs[g][l] = c[g][l].mul_add(nr, obs[g][l]);
+        }
+    }
+    *re = r;
+    *im = i;
+    sums.obs[..G].copy_from_slice(&obs);
+    for l in 0..LANES {
+        sums.bridge[l] += sum[l];
+    }
 }
 
 fn undo_step(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64]) {

@@ -27,7 +27,7 @@
 //!
 //! Striking again continues from the string's present state.
 
-use crate::contact::ContactStep;
+use crate::contact::{ContactStep, Felt};
 use crate::hammer::{Hammer, HammerSpec};
 use crate::modal_bank::{DriveTable, Hold, LANES, ModalBank, StepTable};
 use crate::pluck::PluckSpec;
@@ -114,6 +114,8 @@ struct HammerState {
     residual_m: f64,
     /// Felt compression at the end of the last step, m.
     compression_m: f64,
+    /// The felt there (force and energy: where the next solve starts).
+    felt: Felt,
     /// Force held over the last step (carried into the next pass), N.
     force_n: f64,
     /// Energy taken up by the omitted modes' dashpot so far, J.
@@ -229,6 +231,7 @@ impl StruckString {
                 hammer: Hammer::thrown(idle_hammer, 0.0),
                 residual_m: 0.0,
                 compression_m: 0.0,
+                felt: Felt::default(),
                 force_n: 0.0,
                 absorbed_j: 0.0,
                 substepping: false,
@@ -360,6 +363,7 @@ impl StruckString {
             hammer: Hammer::thrown(spec, touching_at_m),
             residual_m: 0.0,
             compression_m: 0.0,
+            felt: Felt::default(),
             force_n: 0.0,
             absorbed_j: 0.0,
             substepping: true,
@@ -716,6 +720,7 @@ impl StruckString {
                 d.absorbed_j += t.residual.energy_j(d.residual_m) - t.residual.energy_j(residual_m);
                 d.residual_m = residual_m;
                 d.compression_m = compression_m;
+                d.felt = Felt { compression_m, force_n: 0.0, energy_j: 0.0 };
                 d.time_s += h;
                 observer.step(d.time_s, compression_m, 0.0);
                 return Tick {
@@ -740,8 +745,9 @@ impl StruckString {
             let (y_hat, bridge_hat) = bank.step_driven(sub, &t.sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
-            let ContactStep { compression_m, step_force_n: force, .. } =
-                d.hammer.spec.law.solve(d.compression_m, c_hat, compliance);
+            let (ContactStep { compression_m, step_force_n: force, .. }, felt) =
+                d.hammer.spec.law.step(d.felt, c_hat, compliance);
+            d.felt = felt;
             d.hammer.commit(h, eta_hat, force);
             let residual_m = relax * d.residual_m + (1.0 - relax) * t.residual.compliance_m_n * force;
             // Work done on the residual, less what its spring now holds, went into its dashpot.
@@ -752,7 +758,7 @@ impl StruckString {
             d.force_n = force;
             d.time_s += h;
             any_force |= force > 0.0;
-            let felt_force_n = d.hammer.spec.law.force_n(compression_m);
+            let felt_force_n = felt.force_n;
             observer.step(d.time_s, compression_m, felt_force_n);
             tick = Tick {
                 contact_force_n: felt_force_n,

@@ -1,0 +1,124 @@
+//! The driven step written with x86-64 vector intrinsics (AVX-512F, and AVX2 with
+//! FMA), chosen at run time by [`super::ModalBank::step_driven`]. The compiler's
+//! own vectorisation of this loop (seven streams, two sums) interleaves lanes
+//! badly; here each group of [`LANES`] modes is one AVX-512 register or two AVX2
+//! registers. Lane by lane the arithmetic and its order are those of the portable
+//! loop (and of the free loop's bridge sum), so results agree to the bit.
+
+use std::arch::x86_64::*;
+
+use super::{CHAIN, LANES, lane_sum};
+
+/// The slices of one driven step: state, pole, carry and observation weights,
+/// all the same length, a multiple of [`LANES`].
+pub(super) struct Driven<'a> {
+    pub re: &'a mut [f64],
+    pub im: &'a mut [f64],
+    pub pole_re: &'a [f64],
+    pub pole_im: &'a [f64],
+    pub carry_re: &'a [f64],
+    pub carry_im: &'a [f64],
+    pub observe: &'a [f64],
+}
+
+impl Driven<'_> {
+    fn groups(&self) -> Option<usize> {
+        let n = self.re.len();
+        let same = [self.im.len(), self.pole_re.len(), self.pole_im.len(), self.carry_re.len(), self.carry_im.len()]
+            .iter()
+            .chain(std::iter::once(&self.observe.len()))
+            .all(|&len| len == n);
+        (same && n.is_multiple_of(LANES)).then_some(n / LANES)
+    }
+}
+
+macro_rules! driven_kernel {
+    ($name:ident, $features:literal, $vector:ty, $width:literal,
+     $load:ident, $store:ident, $zero:ident, $splat:ident, $add:ident, $mul:ident, $fmadd:ident, $fmsub:ident) => {
+        /// One driven step (see [`super::ModalBank::step_driven`]); `None` when the
+        /// slices do not fit together.
+        #[target_feature(enable = $features)]
+        pub(super) fn $name(d: Driven<'_>, input: f64) -> Option<(f64, f64)> {
+            const HALVES: usize = LANES / $width;
+            let groups = d.groups()?;
+            let input_v = $splat(input);
+            let mut obs: [[$vector; HALVES]; CHAIN] = [[$zero(); HALVES]; CHAIN];
+            let mut bridge: [$vector; HALVES] = [$zero(); HALVES];
+            let mut g = 0;
+            while g < groups {
+                let chain = (groups - g).min(CHAIN);
+                let mut sum: [$vector; HALVES] = [$zero(); HALVES];
+                for k in 0..chain {
+                    for h in 0..HALVES {
+                        let at = (g + k) * LANES + h * $width;
+                        // SAFETY: at + $width <= groups * LANES, the length of every slice (checked by groups()).
+                        unsafe {
+                            let zr = $load(d.re.as_ptr().add(at));
+                            let zi = $load(d.im.as_ptr().add(at));
+                            let pr = $load(d.pole_re.as_ptr().add(at));
+                            let pi = $load(d.pole_im.as_ptr().add(at));
+                            let er = $load(d.carry_re.as_ptr().add(at));
+                            let ei = $load(d.carry_im.as_ptr().add(at));
+                            let c = $load(d.observe.as_ptr().add(at));
+                            // nr = er u + (pr zr - pi zi), ni = ei u + (pr zi + pi zr), as the portable loop.
+                            let nr = $fmadd(er, input_v, $fmsub(pr, zr, $mul(pi, zi)));
+                            let ni = $fmadd(ei, input_v, $fmadd(pr, zi, $mul(pi, zr)));
+                            $store(d.re.as_mut_ptr().add(at), nr);
+                            $store(d.im.as_mut_ptr().add(at), ni);
+                            sum[h] = $add(sum[h], nr);
+                            obs[k][h] = $fmadd(c, nr, obs[k][h]);
+                        }
+                    }
+                }
+                for h in 0..HALVES {
+                    bridge[h] = $add(bridge[h], sum[h]);
+                }
+                g += chain;
+            }
+            let mut observed = [0.0; LANES];
+            let mut bridged = [0.0; LANES];
+            for h in 0..HALVES {
+                let mut total = obs[0][h];
+                for o in &obs[1..] {
+                    total = $add(total, o[h]);
+                }
+                // SAFETY: each half is $width lanes of the LANES-long arrays.
+                unsafe {
+                    $store(observed.as_mut_ptr().add(h * $width), total);
+                    $store(bridged.as_mut_ptr().add(h * $width), bridge[h]);
+                }
+            }
+            Some((lane_sum(&observed), lane_sum(&bridged)))
+        }
+    };
+}
+
+driven_kernel!(
+    driven_avx512,
+    "avx512f",
+    __m512d,
+    8,
+    _mm512_loadu_pd,
+    _mm512_storeu_pd,
+    _mm512_setzero_pd,
+    _mm512_set1_pd,
+    _mm512_add_pd,
+    _mm512_mul_pd,
+    _mm512_fmadd_pd,
+    _mm512_fmsub_pd
+);
+
+driven_kernel!(
+    driven_avx2,
+    "avx2,fma",
+    __m256d,
+    4,
+    _mm256_loadu_pd,
+    _mm256_storeu_pd,
+    _mm256_setzero_pd,
+    _mm256_set1_pd,
+    _mm256_add_pd,
+    _mm256_mul_pd,
+    _mm256_fmadd_pd,
+    _mm256_fmsub_pd
+);

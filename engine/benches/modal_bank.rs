@@ -1,12 +1,14 @@
 //! The modal bank's hot loops: free modes in banks of 1k, 16k and 64k (the
-//! whole-keyboard scale), and a piano bass string while its hammer is on it
-//! (8 sub-steps per sample, each with the implicit contact solve).
+//! whole-keyboard scale), a piano bass string while its hammer is on it
+//! (8 sub-steps per sample, each with the implicit contact solve), and the
+//! contact solve alone.
 //!
-//! Throughput is in mode-samples (free) or mode-steps (contact) per second.
+//! Throughput is in mode-samples (free), mode-steps (contact) or solves per second.
 
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use struck_engine::contact::ContactLaw;
 use struck_engine::perf::{contact_string, synthetic_bank};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 
@@ -52,6 +54,42 @@ fn in_contact(c: &mut Criterion) {
     group.finish();
 }
 
+/// The arguments of the solves of one felt compression: (c0, c_hat) for each
+/// step as the compression rises from 0 to `peak_m` and falls back along a half
+/// sine. Each step starts where the previous solve ended; its force-free
+/// prediction c_hat is the half sine's next point plus W times the felt's force
+/// there, so the solve lands near the half sine.
+fn compression_sequence(law: ContactLaw, w: f64, peak_m: f64, steps: usize) -> Vec<(f64, f64)> {
+    let mut c0 = 0.0;
+    (1..steps)
+        .map(|k| {
+            let target = peak_m * (std::f64::consts::PI * k as f64 / steps as f64).sin();
+            let c_hat = target + w * law.force_n(target);
+            let args = (c0, c_hat);
+            c0 = law.solve(c0, c_hat, w).compression_m;
+            args
+        })
+        .collect()
+}
+
+fn contact_solve(c: &mut Criterion) {
+    // The C2 felt of contact_string(): K = 4e8 N/m^2.3, alpha = 2.3 (50 N at 1 mm).
+    let law = ContactLaw { stiffness: 4.0e8, exponent: 2.3 };
+    let w = 1e-7;
+    let steps = compression_sequence(law, w, 1e-3, 1024);
+    let mut group = c.benchmark_group("contact solve");
+    group.throughput(Throughput::Elements(steps.len() as u64));
+    group.bench_function("felt K 4e8 alpha 2.3, compression 0 to 1 mm and back, W 1e-7 m/N", |b| {
+        b.iter(|| {
+            let law = std::hint::black_box(law);
+            for &(c0, c_hat) in std::hint::black_box(&steps) {
+                std::hint::black_box(law.solve(std::hint::black_box(c0), c_hat, std::hint::black_box(w)));
+            }
+        })
+    });
+    group.finish();
+}
+
 fn instruments(c: &mut Criterion) {
     let mut group = c.benchmark_group("instrument, chords every 0.2 s with the pedal down");
     group.sample_size(10);
@@ -63,5 +101,5 @@ fn instruments(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, free_modes, in_contact, instruments);
+criterion_group!(benches, free_modes, in_contact, contact_solve, instruments);
 criterion_main!(benches);

@@ -434,3 +434,95 @@ fn refuses_a_non_finite_wav_gain() {
     assert_refused(&s, &["--wav", wav.to_str().unwrap(), "--wav-gain-db", "inf"], "--wav-gain-db");
     assert!(!Path::new(&wav).exists());
 }
+
+/// `struck bench --json`: one JSON object on stdout, every figure both under its
+/// dotted name and nested. Speeds are not asserted (a shared machine varies).
+#[test]
+fn bench_json_holds_every_figure_flat_and_nested() {
+    let out = struck(&["bench", "--json", "--seconds", "0.05"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = stdout(&out);
+    let report: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("not one JSON value ({e}): {text}"));
+    assert!(report.is_object(), "{text}");
+
+    // Every figure found both ways, and the same both ways.
+    let figure = |dotted: &str| -> Value {
+        let flat = report.get(dotted).unwrap_or_else(|| panic!("no flat key {dotted:?}: {text}"));
+        let pointer = format!("/{}", dotted.replace('.', "/"));
+        let nested = report.pointer(&pointer).unwrap_or_else(|| panic!("no nested {pointer}: {text}"));
+        assert_eq!(flat, nested, "{dotted}");
+        flat.clone()
+    };
+    let number = |dotted: &str| -> f64 {
+        let x = figure(dotted).as_f64().unwrap_or_else(|| panic!("{dotted} is not a number: {text}"));
+        assert!(x.is_finite() && x >= 0.0, "{dotted} = {x}");
+        x
+    };
+    // Figures that are work done in a measured time: above zero.
+    for dotted in [
+        "full_keyboard.load_fraction",
+        "full_keyboard.worst_block_fraction",
+        "full_keyboard.chord10_block_fraction",
+        "full_keyboard.modes",
+        "full_keyboard.running_modes_mean",
+        "kernel.ns_per_mode_sample",
+        "kernel.fraction_of_fma_probe",
+        "kernel.fma_probe_per_s",
+        "chord32.realtime_factor",
+        "chord32.keys",
+        "after_release.worst_block_fraction",
+        "contact.mode_steps_per_s",
+        "contact.modes",
+    ] {
+        assert!(number(dotted) > 0.0, "{dotted} should be positive: {text}");
+    }
+    for dotted in ["idle.load_fraction", "after_release.load_fraction"] {
+        number(dotted);
+    }
+    assert!(number("full_keyboard.running_modes_mean") <= number("full_keyboard.modes"));
+    assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord10_block_fraction"));
+    let silent = figure("after_release.silent_after_s");
+    assert!(silent.is_null() || silent.as_f64().is_some_and(|s| s > 0.0), "{silent}");
+    assert_eq!(report["sample_rate_hz"], 48_000);
+    assert_eq!(report["block"], 64);
+    assert_eq!(report["threads"], 1);
+    assert_eq!(report["runs"], 3);
+    for name in ["cpu", "simd"] {
+        let value = report[name].as_str().unwrap_or_else(|| panic!("{name} is not a string: {text}"));
+        assert!(!value.trim().is_empty(), "{name} is empty");
+    }
+
+    // Each goal: its figure, the bound, and whether it is met (not which).
+    let goals = report["goals"].as_object().unwrap_or_else(|| panic!("no goals: {text}"));
+    for goal in ["full_keyboard_load", "worst_block", "kernel", "chord32", "idle", "after_release_load"] {
+        assert!(goals.contains_key(goal), "no goal {goal}: {text}");
+    }
+    for (name, goal) in goals {
+        assert!(goal["pass"].is_boolean(), "goals.{name}.pass: {goal}");
+        assert!(goal["value"].as_f64().is_some_and(f64::is_finite), "goals.{name}.value: {goal}");
+        assert_eq!(figure(&format!("goals.{name}.pass")), goal["pass"]);
+    }
+    assert_eq!(figure("goals.kernel.value"), figure("kernel.fraction_of_fma_probe"));
+    let met = goals.values().filter(|g| g["pass"] == true).count();
+    assert_eq!(report["goals_met"], met);
+    assert_eq!(report["all_goals_met"], met == goals.len());
+}
+
+#[test]
+fn bench_refuses_bad_arguments_with_one_line() {
+    for (args, named) in [
+        (&["--seconds", "-1"][..], "--seconds"),
+        (&["--seconds", "nan"], "--seconds"),
+        (&["--seconds", "0"], "--seconds"),
+        (&["--seconds", "601"], "--seconds"),
+        (&["--seconds", "inf", "--json"], "--seconds"),
+        (&["--runs", "0"], "--runs"),
+    ] {
+        let out = struck(&[&["bench"][..], args].concat());
+        let message = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {message}");
+        assert_eq!(message.lines().count(), 1, "{args:?}: one line: {message:?}");
+        assert!(message.starts_with("struck bench: ") && message.contains(named), "{args:?}: {message:?}");
+        assert!(stdout(&out).is_empty(), "{args:?}");
+    }
+}

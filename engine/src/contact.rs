@@ -168,7 +168,7 @@ impl ContactLaw {
                 break;
             }
             let mut next = c - step;
-            if !(next > lo && next < hi) && !lo_known {
+            if !(lo_known || next > lo && next < hi) {
                 lo = lo.max(c_hat - w * f0.max(self.force_n(c_hat)));
                 lo_known = true;
             }

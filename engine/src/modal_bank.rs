@@ -739,8 +739,8 @@ fn driven_chain<const G: usize>(
     *re = r;
     *im = i;
     sums.obs[..G].copy_from_slice(&obs);
-    for l in 0..LANES {
-        sums.bridge[l] += sum[l];
+    for (b, s) in sums.bridge.iter_mut().zip(sum) {
+        *b += s;
     }
 }
 
@@ -918,5 +918,69 @@ mod tests {
         assert_eq!(bank.running(), n.div_ceil(LANES) * LANES);
         bank.clear();
         assert_eq!(bank.running(), 0);
+    }
+
+    /// Each vector kernel the machine can run gives the portable loop's bits.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn vector_driven_steps_match_the_portable_loop() {
+        let string = StringSpec {
+            length_m: 0.62,
+            tuning: Tuning::TensionN(670.0),
+            mass: Mass::PerLengthKgM(0.00634),
+            stiffness: Stiffness::Inharmonicity(3.8e-4),
+            damping: Damping::UniformQ(2000.0),
+            max_frequency_hz: 20_000.0,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap();
+        let step = StepTable::new(&string, 1.0 / 96_000.0);
+        let mut start = ModalBank::new(&string);
+        for i in 0..start.len() {
+            start.add_velocity(i, 1.0 / (i + 1) as f64);
+        }
+        let gain: Vec<f64> = (0..start.len()).map(|i| (i as f64).cos()).collect();
+        let drive = DriveTable::new(&step, Hold::End, start.weights(), &gain, &gain);
+        type Kernel = fn(x86::Driven<'_>, f64) -> Option<(f64, f64)>;
+        let kernels: [(&str, bool, Kernel); 2] = [
+            ("avx512", is_x86_feature_detected!("avx512f"), |d, u| unsafe { x86::driven_avx512(d, u) }),
+            ("avx2", is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"), |d, u| unsafe {
+                x86::driven_avx2(d, u)
+            }),
+        ];
+        for (name, available, kernel) in kernels {
+            if !available {
+                continue;
+            }
+            let (mut a, mut b) = (start.clone(), start.clone());
+            for k in 0..50 {
+                let input = 0.1 * (k as f64).sin();
+                let portable = driven_step(
+                    &mut a.re,
+                    &mut a.im,
+                    &step.pole_re,
+                    &step.pole_im,
+                    &drive.carry_re,
+                    &drive.carry_im,
+                    &drive.observe,
+                    input,
+                );
+                let d = x86::Driven {
+                    re: &mut b.re,
+                    im: &mut b.im,
+                    pole_re: &step.pole_re,
+                    pole_im: &step.pole_im,
+                    carry_re: &drive.carry_re,
+                    carry_im: &drive.carry_im,
+                    observe: &drive.observe,
+                };
+                let vector = kernel(d, input).expect("slices that fit");
+                assert_eq!(portable.1.to_bits(), vector.1.to_bits(), "{name}: bridge force at step {k}");
+                assert!((portable.0 - vector.0).abs() <= 1e-12 * portable.0.abs().max(1e-30), "{name}: observation");
+            }
+            assert_eq!(a.re, b.re, "{name}");
+            assert_eq!(a.im, b.im, "{name}");
+        }
     }
 }

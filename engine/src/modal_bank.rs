@@ -759,6 +759,21 @@ mod tests {
     use crate::damping::Damping;
     use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
+    /// A stiff treble string with modes up to 20 kHz.
+    fn treble_string() -> StringModes {
+        StringSpec {
+            length_m: 0.62,
+            tuning: Tuning::TensionN(670.0),
+            mass: Mass::PerLengthKgM(0.00634),
+            stiffness: Stiffness::Inharmonicity(3.8e-4),
+            damping: Damping::UniformQ(2000.0),
+            max_frequency_hz: 20_000.0,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap()
+    }
+
     fn one_mode(q: f64) -> StringModes {
         StringSpec {
             length_m: 1.0,
@@ -815,17 +830,7 @@ mod tests {
 
     #[test]
     fn free_and_driven_idle_steps_give_identical_bits() {
-        let string = StringSpec {
-            length_m: 0.62,
-            tuning: Tuning::TensionN(670.0),
-            mass: Mass::PerLengthKgM(0.00634),
-            stiffness: Stiffness::Inharmonicity(3.8e-4),
-            damping: Damping::UniformQ(2000.0),
-            max_frequency_hz: 20_000.0,
-            outer_diameter_m: None,
-        }
-        .build()
-        .unwrap();
+        let string = treble_string();
         let step = StepTable::new(&string, 1.0 / 48_000.0);
         let mut a = ModalBank::new(&string);
         for i in 0..a.len() {
@@ -877,17 +882,7 @@ mod tests {
 
     #[test]
     fn culling_rests_quiet_modes_and_stops_computing_above_the_loudest() {
-        let string = StringSpec {
-            length_m: 0.62,
-            tuning: Tuning::TensionN(670.0),
-            mass: Mass::PerLengthKgM(0.00634),
-            stiffness: Stiffness::Inharmonicity(3.8e-4),
-            damping: Damping::UniformQ(2000.0),
-            max_frequency_hz: 20_000.0,
-            outer_diameter_m: None,
-        }
-        .build()
-        .unwrap();
+        let string = treble_string();
         let step = StepTable::new(&string, 1.0 / 48_000.0);
         let mut bank = ModalBank::new(&string);
         assert_eq!(bank.running(), 0, "a bank at rest computes nothing");
@@ -924,17 +919,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn vector_driven_steps_match_the_portable_loop() {
-        let string = StringSpec {
-            length_m: 0.62,
-            tuning: Tuning::TensionN(670.0),
-            mass: Mass::PerLengthKgM(0.00634),
-            stiffness: Stiffness::Inharmonicity(3.8e-4),
-            damping: Damping::UniformQ(2000.0),
-            max_frequency_hz: 20_000.0,
-            outer_diameter_m: None,
-        }
-        .build()
-        .unwrap();
+        let string = treble_string();
         let step = StepTable::new(&string, 1.0 / 96_000.0);
         let mut start = ModalBank::new(&string);
         for i in 0..start.len() {

@@ -566,27 +566,10 @@ impl StruckString {
     }
 
     /// Advance `out.len()` samples while the string is free (or a tangent rests on
-    /// it), adding its bridge force to `out`. Returns false (doing nothing) when an
-    /// exciter is in play.
-    ///
-    /// Allocates: no.
-    pub fn process_free(&mut self, out: &mut [f64]) -> bool {
-        match self.exciter {
-            Exciter::None => self.bank.process_free(&self.audio, out),
-            // A tangent at rest only holds the end up: a free step plus its static lift.
-            Exciter::Tangent if self.tangent.remaining == 0.0 => {
-                self.bank.process_free(&self.audio, out);
-                let line = self.string.tension_n * self.tangent.to_m / self.string.length_m;
-                out.iter_mut().for_each(|o| *o += line);
-            }
-            _ => return false,
-        }
-        true
-    }
-
-    /// [`Self::process_free`] into a shared accumulator ([`ModalBank::accumulate_free`]):
-    /// the modes' bridge force goes to `acc` by lane, a resting tangent's static
-    /// lift to `out` (`acc` and `out` the same length).
+    /// it): the modes' bridge force goes to `acc` by lane ([`ModalBank::accumulate_free`];
+    /// sum the lanes with [`crate::modal_bank::lane_sum`]), a resting tangent's
+    /// static lift to `out` (`acc` and `out` the same length). Returns false (doing
+    /// nothing) when an exciter is in play.
     ///
     /// Allocates: no.
     pub fn accumulate_free(&mut self, acc: &mut [[f64; LANES]], out: &mut [f64]) -> bool {

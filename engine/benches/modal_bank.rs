@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use struck_engine::contact::ContactLaw;
+use struck_engine::contact::{ContactLaw, Felt};
 use struck_engine::perf::{contact_string, synthetic_bank};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 
@@ -85,6 +85,22 @@ fn contact_solve(c: &mut Criterion) {
             for &(c0, c_hat) in std::hint::black_box(&steps) {
                 std::hint::black_box(law.solve(std::hint::black_box(c0), c_hat, std::hint::black_box(w)));
             }
+        })
+    });
+    // As a strike runs them: each step from the felt the last left, and from the
+    // force of the last three carried on by a parabola.
+    group.bench_function("the same, chained, from extrapolated forces", |b| {
+        b.iter(|| {
+            let law = std::hint::black_box(law);
+            let mut felt = Felt::default();
+            let mut forces = [0.0; 3];
+            for &(_, c_hat) in std::hint::black_box(&steps) {
+                let guess = 3.0 * (forces[0] - forces[1]) + forces[2];
+                let (step, end) = law.step(felt, c_hat, std::hint::black_box(w), Some(guess));
+                felt = end;
+                forces = [step.step_force_n, forces[0], forces[1]];
+            }
+            std::hint::black_box(felt)
         })
     });
     group.finish();

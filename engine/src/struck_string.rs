@@ -118,6 +118,8 @@ struct HammerState {
     felt: Felt,
     /// Force held over the last step (carried into the next pass), N.
     force_n: f64,
+    /// ... and over the two steps before it (to guess the next), N.
+    earlier_force_n: [f64; 2],
     /// Energy taken up by the omitted modes' dashpot so far, J.
     absorbed_j: f64,
     substepping: bool,
@@ -233,6 +235,7 @@ impl StruckString {
                 compression_m: 0.0,
                 felt: Felt::default(),
                 force_n: 0.0,
+                earlier_force_n: [0.0; 2],
                 absorbed_j: 0.0,
                 substepping: false,
                 quiet_samples: 0,
@@ -365,6 +368,7 @@ impl StruckString {
             compression_m: 0.0,
             felt: Felt::default(),
             force_n: 0.0,
+            earlier_force_n: [0.0; 2],
             absorbed_j: 0.0,
             substepping: true,
             quiet_samples: 0,
@@ -728,8 +732,12 @@ impl StruckString {
             let (y_hat, bridge_hat) = bank.step_driven(sub, &t.sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
+            // The force's course so far, carried on by a parabola, is the solve's first guess.
+            let [f1, f2] = d.earlier_force_n;
+            let guess = 3.0 * (d.force_n - f1) + f2;
             let (ContactStep { compression_m, step_force_n: force, .. }, felt) =
-                d.hammer.spec.law.step(d.felt, c_hat, compliance);
+                d.hammer.spec.law.step(d.felt, c_hat, compliance, Some(guess));
+            d.earlier_force_n = [d.force_n, f1];
             d.felt = felt;
             d.hammer.commit(h, eta_hat, force);
             let residual_m = relax * d.residual_m + (1.0 - relax) * t.residual.compliance_m_n * force;

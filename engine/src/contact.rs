@@ -183,17 +183,18 @@ impl ContactLaw {
             }
             // Along the slopes F errs by about alpha^2 (step / C)^2 / 2 and the felt's
             // energy by alpha (alpha + 1) (step / C)^2 / 2 of what it holds.
-            if c > 0.0 && step.abs() <= ACCEPT * c {
-                if let Some(felt) = last.as_mut() {
-                    // The last step, taken along the slopes (see above).
-                    let slope = self.exponent * felt.force_n / felt.compression_m;
-                    felt.energy_j -= felt.force_n * step;
-                    felt.force_n -= slope * step;
-                    felt.compression_m -= step;
-                    c -= step;
-                    q -= dq * step;
-                    break;
-                }
+            if c > 0.0
+                && step.abs() <= ACCEPT * c
+                && let Some(felt) = last.as_mut()
+            {
+                // The last step, taken along the slopes (see above).
+                let slope = self.exponent * felt.force_n / felt.compression_m;
+                felt.energy_j -= felt.force_n * step;
+                felt.force_n -= slope * step;
+                felt.compression_m -= step;
+                c -= step;
+                q -= dq * step;
+                break;
             }
             let mut next = c - step;
             if !(lo_known || next > lo && next < hi) {
@@ -296,7 +297,11 @@ mod tests {
                 evaluations += s.iterations;
                 let c1 = s.compression_m;
                 let miss = (c1 - (c_hat - w * s.step_force_n)).abs() / c_hat.abs().max(c0.abs());
-                assert!(miss <= 1e-12, "{law:?} step {k}: c1 {c1} c_hat {c_hat} c0 {c0} q {} miss {miss}", s.step_force_n);
+                assert!(
+                    miss <= 1e-12,
+                    "{law:?} step {k}: c1 {c1} c_hat {c_hat} c0 {c0} q {} miss {miss}",
+                    s.step_force_n
+                );
                 if c1 > 0.0 {
                     let exact = law.felt(c1);
                     let (e, f) = (exact.energy_j, exact.force_n);

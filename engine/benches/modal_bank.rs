@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use struck_engine::contact::{ContactLaw, Felt};
+use struck_engine::contact::{ContactLaw, Felt, Guess};
 use struck_engine::perf::{contact_string, synthetic_bank};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 
@@ -88,17 +88,24 @@ fn contact_solve(c: &mut Criterion) {
         })
     });
     // As a strike runs them: each step from the felt the last left, and from the
-    // force of the last three carried on by a parabola.
+    // force and compression of the last three carried on by parabolas.
     group.bench_function("the same, chained, from extrapolated forces", |b| {
         b.iter(|| {
             let law = std::hint::black_box(law);
             let mut felt = Felt::default();
             let mut forces = [0.0; 3];
+            let mut compressions = [0.0; 3];
+            let binomial = law.binomial();
             for &(_, c_hat) in std::hint::black_box(&steps) {
-                let guess = 3.0 * (forces[0] - forces[1]) + forces[2];
+                let guess = Guess {
+                    force_n: 3.0 * (forces[0] - forces[1]) + forces[2],
+                    compression_m: 3.0 * (compressions[0] - compressions[1]) + compressions[2],
+                    binomial: &binomial,
+                };
                 let (step, end) = law.step(felt, c_hat, std::hint::black_box(w), Some(guess));
                 felt = end;
                 forces = [step.step_force_n, forces[0], forces[1]];
+                compressions = [step.compression_m, compressions[0], compressions[1]];
             }
             std::hint::black_box(felt)
         })

@@ -107,9 +107,14 @@ impl ContactLaw {
 
     /// [`Self::solve`] from the felt as the last step left it, returning the felt
     /// at the end of this step too: a strike's steps chain without recomputing
-    /// the power at each step's start. `force_guess`, if any, is a guess at the
-    /// step's force (extrapolated from the last steps'); without one the solve
-    /// starts from a Newton step at `start`.
+    /// the power at each step's start. `guess`, if any, holds guesses at the
+    /// step's force and end compression (extrapolated from the last steps');
+    /// without one the solve starts from a Newton step at `start`.
+    ///
+    /// With a guess, the power is taken once, at the guessed compression, and
+    /// the felt near it follows from a binomial series ([`Series`]). That power
+    /// does not wait on `c_hat`, so a caller that works out `c_hat` meanwhile
+    /// (a pass over the modes) hides it.
     ///
     /// Newton's method on g, which is increasing and convex, lands at or above the
     /// root from any start and then descends to it monotonically; so the lower end
@@ -119,13 +124,23 @@ impl ContactLaw {
     /// it is taken without evaluating the felt again: the force and the felt's
     /// state move along their slopes, which keeps C1 = C_hat - W F exact and
     /// errs by the square of the step.
-    pub fn step(&self, start: Felt, c_hat: f64, w: f64, force_guess: Option<f64>) -> (ContactStep, Felt) {
+    pub fn step(&self, start: Felt, c_hat: f64, w: f64, guess: Option<Guess<'_>>) -> (ContactStep, Felt) {
         let Felt { compression_m: c0, force_n: f0, energy_j: e0 } = start;
         if c0 <= 0.0 && c_hat <= 0.0 {
             let end = Felt { compression_m: c_hat, force_n: 0.0, energy_j: 0.0 };
             return (ContactStep { compression_m: c_hat, step_force_n: 0.0, iterations: 0 }, end);
         }
         let per_exponent = 1.0 / (self.exponent + 1.0);
+        let series = guess.and_then(|g| Series::new(self, g.binomial, g.compression_m));
+        let force_at = |c: f64| -> f64 {
+            if !(c > 0.0) {
+                return 0.0;
+            }
+            match series.as_ref().and_then(|s| s.force_n(c)) {
+                Some(f) => f,
+                None => self.stiffness * c.powf(self.exponent),
+            }
+        };
         // The mean force between c0 and c, its derivative with respect to c,
         // 1 / |c - c0| (held at 1 / (NEAR c) near c0) for the convergence floor,
         // and the felt at c (unless c is that near c0).
@@ -135,7 +150,7 @@ impl ContactLaw {
                 let (f, slope) = self.force_and_slope(0.5 * (c0 + c));
                 (f, 0.5 * slope, 1.0 / (NEAR * scale), None)
             } else {
-                let f = if c > 0.0 { self.stiffness * c.powf(self.exponent) } else { 0.0 };
+                let f = force_at(c);
                 let e = f * c.max(0.0) * per_exponent;
                 let per_gap = 1.0 / (c - c0);
                 let q = (e - e0) * per_gap;
@@ -147,8 +162,8 @@ impl ContactLaw {
         let mut hi = c_hat;
         let mut lo = f64::NEG_INFINITY;
         let mut lo_known = false;
-        let mut c = match force_guess {
-            Some(force) if c0 > 0.0 => c_hat - w * force.max(0.0),
+        let mut c = match guess {
+            Some(Guess { force_n, .. }) if c0 > 0.0 => c_hat - w * force_n.max(0.0),
             // One Newton step from c0, where the mean force is F(c0).
             _ => {
                 let slope0 = if c0 > 0.0 { self.exponent * f0 / c0 } else { 0.0 };
@@ -172,15 +187,6 @@ impl ContactLaw {
                 break;
             }
             let step = g / (1.0 + w * dq);
-            // Converged: the step is below what rounding lets g resolve. The divided
-            // difference carries a relative error of about eps C / |C - C0|, so g
-            // cannot be known better than eps (C + W Q C / |C - C0|). (Checked before
-            // the bracket, which a step smaller than an ulp would seem to leave.)
-            let scale = c.abs().max(c0.abs());
-            let floor = 4.0 * f64::EPSILON * scale * (1.0 + w * q.abs() * per_gap);
-            if step.abs() <= floor || iterations == MAX_ITERATIONS {
-                break;
-            }
             // Along the slopes F errs by about alpha^2 (step / C)^2 / 2 and the felt's
             // energy by alpha (alpha + 1) (step / C)^2 / 2 of what it holds.
             if c > 0.0
@@ -194,6 +200,15 @@ impl ContactLaw {
                 felt.compression_m -= step;
                 c -= step;
                 q -= dq * step;
+                break;
+            }
+            // Converged: the step is below what rounding lets g resolve. The divided
+            // difference carries a relative error of about eps C / |C - C0|, so g
+            // cannot be known better than eps (C + W Q C / |C - C0|). (Checked before
+            // the bracket, which a step smaller than an ulp would seem to leave.)
+            let scale = c.abs().max(c0.abs());
+            let floor = 4.0 * f64::EPSILON * scale * (1.0 + w * q.abs() * per_gap);
+            if step.abs() <= floor || iterations == MAX_ITERATIONS {
                 break;
             }
             let mut next = c - step;
@@ -211,6 +226,78 @@ impl ContactLaw {
             _ => self.felt(c),
         };
         (ContactStep { compression_m: c, step_force_n: q, iterations }, end)
+    }
+}
+
+/// Guesses at a step's force and end compression, for [`ContactLaw::step`],
+/// and the law's [`ContactLaw::binomial`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guess<'a> {
+    pub force_n: f64,
+    pub compression_m: f64,
+    pub binomial: &'a Binomial,
+}
+
+/// The coefficients binom(alpha, k) of (1 + x)^alpha, k = 0 ..= [`SERIES_TERMS`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Binomial([f64; SERIES_TERMS + 1]);
+
+impl ContactLaw {
+    /// The binomial series of its exponent (worked out once per strike).
+    pub fn binomial(&self) -> Binomial {
+        let mut coefficients = [1.0; SERIES_TERMS + 1];
+        for k in 1..=SERIES_TERMS {
+            coefficients[k] = coefficients[k - 1] * (self.exponent - (k - 1) as f64) / k as f64;
+        }
+        Binomial(coefficients)
+    }
+}
+
+/// Terms of [`Series`] after the first.
+pub const SERIES_TERMS: usize = 8;
+/// How far from its anchor [`Series`] is used, as a fraction of the anchor: the
+/// first term left out is below 32^-9 = 3e-14 (times a binomial coefficient,
+/// below 1 past the exponent).
+const SERIES_REACH: f64 = 1.0 / 32.0;
+
+/// The felt's force near a compression a: K c^alpha = K a^alpha (1 + x)^alpha
+/// with x = (c - a) / a, (1 + x)^alpha = sum of binom(alpha, k) x^k.
+struct Series<'a> {
+    anchor_m: f64,
+    per_anchor: f64,
+    force_n: f64,
+    coefficients: &'a [f64; SERIES_TERMS + 1],
+}
+
+impl<'a> Series<'a> {
+    fn new(law: &ContactLaw, binomial: &'a Binomial, anchor_m: f64) -> Option<Self> {
+        if !(anchor_m > 0.0 && anchor_m.is_finite()) {
+            return None;
+        }
+        Some(Self {
+            anchor_m,
+            per_anchor: 1.0 / anchor_m,
+            force_n: law.stiffness * anchor_m.powf(law.exponent),
+            coefficients: &binomial.0,
+        })
+    }
+
+    /// K c^alpha, if c is within reach of the anchor.
+    #[inline]
+    fn force_n(&self, c: f64) -> Option<f64> {
+        let x = (c - self.anchor_m) * self.per_anchor;
+        if !(x.abs() <= SERIES_REACH) {
+            return None;
+        }
+        let a = self.coefficients;
+        // Estrin's scheme: pairs, then pairs of pairs (a short dependency chain).
+        let x2 = x * x;
+        let x4 = x2 * x2;
+        // (Plain products: without FMA in the baseline target, mul_add is a call.)
+        let low = (a[1] * x + a[0]) + x2 * (a[3] * x + a[2]);
+        let high = (a[5] * x + a[4]) + x2 * (a[7] * x + a[6]);
+        let sum = (high + x4 * a[8]) * x4 + low;
+        Some(self.force_n * sum)
     }
 }
 
@@ -279,8 +366,8 @@ mod tests {
     #[test]
     fn chained_steps_from_a_guessed_force_stay_exact() {
         // As a strike chains them: each step starts from the felt the last one left
-        // and from a force extrapolated by a parabola; most end on an accepted
-        // Newton step whose force and felt moved along their slopes.
+        // and from a force and compression extrapolated by parabolas; most end on
+        // an accepted Newton step whose force and felt moved along their slopes.
         for (law, w, dc) in [
             (ContactLaw { stiffness: 4.0e8, exponent: 2.3 }, 2e-8, 6.5e-6),
             (ContactLaw { stiffness: 1.0e12, exponent: 3.0 }, 1e-8, 1e-6),
@@ -288,11 +375,17 @@ mod tests {
         ] {
             let mut felt = Felt::default();
             let mut forces = [0.0; 3];
+            let mut compressions = [0.0; 3];
+            let binomial = law.binomial();
             let mut evaluations = 0;
             for k in 0..200 {
                 let c0 = felt.compression_m;
                 let c_hat = c0 + dc * (1.0 - k as f64 / 100.0);
-                let guess = 3.0 * (forces[0] - forces[1]) + forces[2];
+                let guess = Guess {
+                    force_n: 3.0 * (forces[0] - forces[1]) + forces[2],
+                    compression_m: 3.0 * (compressions[0] - compressions[1]) + compressions[2],
+                    binomial: &binomial,
+                };
                 let (s, end) = law.step(felt, c_hat, w, Some(guess));
                 evaluations += s.iterations;
                 let c1 = s.compression_m;
@@ -314,9 +407,32 @@ mod tests {
                 }
                 felt = end;
                 forces = [s.step_force_n, forces[0], forces[1]];
+                compressions = [c1, compressions[0], compressions[1]];
             }
-            // Mostly one power per step.
+            // Mostly one evaluation per step.
             assert!(evaluations < 300, "{law:?}: {evaluations} evaluations in 200 steps");
+        }
+    }
+
+    #[test]
+    fn the_binomial_series_is_the_power_within_its_reach() {
+        for exponent in [1.0, 1.5, 2.3, 2.5, 3.0, 4.7, 6.0] {
+            let law = ContactLaw { stiffness: 4.0e8, exponent };
+            let binomial = law.binomial();
+            // The first term left out, at the edge of the reach.
+            let mut next = binomial.0[SERIES_TERMS];
+            next *= (exponent - SERIES_TERMS as f64) / (SERIES_TERMS + 1) as f64;
+            assert!(next.abs() * SERIES_REACH.powi(SERIES_TERMS as i32 + 1) < 1e-15, "alpha {exponent}");
+            let anchor = 3.7e-4;
+            let series = Series::new(&law, &binomial, anchor).unwrap();
+            for i in -20..=20 {
+                let c = anchor * (1.0 + 0.999 * SERIES_REACH * i as f64 / 20.0);
+                let exact = law.force_n(c);
+                let f = series.force_n(c).unwrap();
+                assert!((f - exact).abs() <= 1e-14 * exact, "alpha {exponent}, c {c}: {f} vs {exact}");
+            }
+            assert!(series.force_n(anchor * (1.0 + 1.01 * SERIES_REACH)).is_none());
+            assert!(series.force_n(anchor * (1.0 - 1.01 * SERIES_REACH)).is_none());
         }
     }
 

@@ -51,6 +51,7 @@ pub mod residual;
 pub mod rng;
 pub mod string;
 pub mod struck_string;
+pub mod substeps;
 pub mod synth;
 pub mod tangent;
 pub mod tuning;

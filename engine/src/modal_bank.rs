@@ -427,6 +427,18 @@ impl ModalBank {
             .sum()
     }
 
+    /// Energy of the difference between this bank's motion and `other`'s (a bank
+    /// for the same string), J.
+    pub fn energy_of_difference_j(&self, other: &ModalBank) -> f64 {
+        (0..self.len.min(other.len))
+            .map(|i| {
+                let q = self.displacement(i) - other.displacement(i);
+                let v = self.velocity(i) - other.velocity(i);
+                0.5 * self.modal_mass_kg * (v * v + self.omega[i] * self.omega[i] * q * q)
+            })
+            .sum()
+    }
+
     /// Bridge force of the present state, N.
     pub fn bridge_force_n(&self) -> f64 {
         lane_sum_all(&self.re)

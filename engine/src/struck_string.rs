@@ -1,9 +1,11 @@
 //! One string and whatever is exciting it: the unit the lab runs and a key will own.
 //!
 //! Per audio sample the string advances by one exact modal step. While a hammer
-//! is in or near contact, the string and hammer advance instead in `substeps`
-//! equal sub-steps, each with the contact force solved implicitly
-//! ([`crate::contact`]); the coefficient sets for both step sizes are built when
+//! is in or near contact, the string and hammer advance instead in equal
+//! sub-steps, each with the contact force solved implicitly ([`crate::contact`]).
+//! A string can keep tables for several sub-step counts and a strike picks one
+//! (a key picks the fewest that keep the strike within its error budget,
+//! [`crate::substeps`]); the coefficient sets for every step size are built when
 //! the exciter is set up. A full step that turns out to end in contact is taken
 //! back ([`ModalBank::undo_free_step`]) and redone in sub-steps; sub-stepping
 //! ends once no force has acted for 100 us (micro-gaps of a chattering stiff
@@ -27,7 +29,7 @@
 //!
 //! Striking again continues from the string's present state.
 
-use crate::contact::{ContactStep, Felt};
+use crate::contact::{Binomial, ContactStep, Felt, Guess};
 use crate::hammer::{Hammer, HammerSpec};
 use crate::modal_bank::{DriveTable, Hold, LANES, ModalBank, StepTable};
 use crate::pluck::PluckSpec;
@@ -68,42 +70,68 @@ impl ContactObserver for () {
 struct Residual {
     /// Static compliance R, m/N.
     compliance_m_n: f64,
-    /// Static share of the bridge force per newton, S.
-    bridge_share: f64,
-    /// exp(-h / (c R)) for a sample and for a sub-step.
+    /// Relaxation time c R, s.
+    time_constant_s: f64,
+    /// 1 / R, and S / R with S the static share of the bridge force per newton
+    /// (both 0 without omitted modes).
+    stiffness_n_m: f64,
+    bridge_per_m: f64,
+    /// exp(-h / (c R)) for a sample.
     relax_audio: f64,
-    relax_sub: f64,
 }
 
 impl Residual {
-    fn new(string: &StringModes, position: f64, sample_s: f64, substeps: usize) -> Self {
+    fn new(string: &StringModes, position: f64, sample_s: f64) -> Self {
         let compliance_m_n = residual::omitted_compliance_m_n(string, position);
         let time_constant_s = residual::omitted_damping_ns_m(string, position) * compliance_m_n;
-        let relax = |h: f64| if time_constant_s > 0.0 { (-h / time_constant_s).exp() } else { 0.0 };
-        Self {
+        let bridge_share = residual::omitted_bridge_share(string, position);
+        let stiffness_n_m = if compliance_m_n > 0.0 { 1.0 / compliance_m_n } else { 0.0 };
+        let mut residual = Self {
             compliance_m_n,
-            bridge_share: residual::omitted_bridge_share(string, position),
-            relax_audio: relax(sample_s),
-            relax_sub: relax(sample_s / substeps as f64),
-        }
+            time_constant_s,
+            stiffness_n_m,
+            bridge_per_m: bridge_share * stiffness_n_m,
+            relax_audio: 0.0,
+        };
+        residual.relax_audio = residual.relax(sample_s);
+        residual
+    }
+
+    /// exp(-h / (c R)): what is left of a displacement after `step_s` without force.
+    fn relax(&self, step_s: f64) -> f64 {
+        if self.time_constant_s > 0.0 { (-step_s / self.time_constant_s).exp() } else { 0.0 }
     }
 
     /// Static bridge force of a residual displacement, N.
     fn bridge_force_n(&self, displacement_m: f64) -> f64 {
-        if self.compliance_m_n > 0.0 { self.bridge_share * displacement_m / self.compliance_m_n } else { 0.0 }
+        self.bridge_per_m * displacement_m
     }
 
     /// Energy in the residual spring, J.
     fn energy_j(&self, displacement_m: f64) -> f64 {
-        if self.compliance_m_n > 0.0 { displacement_m * displacement_m / (2.0 * self.compliance_m_n) } else { 0.0 }
+        0.5 * self.stiffness_n_m * displacement_m * displacement_m
     }
 }
 
-/// What a hammer at one strike point needs, for both step sizes.
+/// One sub-step size: its count per sample and the string's step over it.
+struct Fine {
+    substeps: usize,
+    step: StepTable,
+}
+
+/// What a hammer needs for one sub-step size.
+struct FineDrive {
+    drive: DriveTable,
+    /// The residual's exp(-h / (c R)) over the sub-step.
+    relax: f64,
+}
+
+/// What a hammer at one strike point needs, for every step size.
 struct HammerTables {
     position: f64,
     audio: DriveTable,
-    sub: DriveTable,
+    /// One per entry of [`StruckString::fine`].
+    fine: Vec<FineDrive>,
     residual: Residual,
 }
 
@@ -120,8 +148,14 @@ struct HammerState {
     force_n: f64,
     /// ... and over the two steps before it (to guess the next), N.
     earlier_force_n: [f64; 2],
+    /// The compressions at the ends of the two steps before the last, m.
+    earlier_compression_m: [f64; 2],
+    /// The felt law's [`ContactLaw::binomial`].
+    binomial: Binomial,
     /// Energy taken up by the omitted modes' dashpot so far, J.
     absorbed_j: f64,
+    /// The sub-step size of this strike (an index into [`StruckString::fine`]).
+    fine: usize,
     substepping: bool,
     quiet_samples: usize,
     time_s: f64,
@@ -187,8 +221,8 @@ pub struct StruckString {
     string: StringModes,
     bank: ModalBank,
     audio: StepTable,
-    sub: StepTable,
-    substeps: usize,
+    /// Sub-step sizes, fewest sub-steps first.
+    fine: Vec<Fine>,
     hold_samples: usize,
     hammer_tables: Option<HammerTables>,
     tangent_tables: Option<TangentTables>,
@@ -204,11 +238,26 @@ impl StruckString {
     /// A string at rest, stepped at `sample_rate_hz` with `substeps` sub-steps per
     /// sample during contact. Allocates.
     pub fn new(string: StringModes, sample_rate_hz: f64, substeps: usize) -> Self {
-        let substeps = substeps.max(1);
+        Self::with_substep_counts(string, sample_rate_hz, &[substeps])
+    }
+
+    /// A string at rest with tables for each of `counts` sub-steps per sample
+    /// (none: [`DEFAULT_SUBSTEPS`]); [`Self::strike_substepped`] chooses among
+    /// them. Allocates.
+    pub fn with_substep_counts(string: StringModes, sample_rate_hz: f64, counts: &[usize]) -> Self {
         let h = 1.0 / sample_rate_hz;
         let bank = ModalBank::new(&string);
         let audio = StepTable::new(&string, h);
-        let sub = StepTable::new(&string, h / substeps as f64);
+        let mut counts: Vec<usize> = counts.iter().map(|&n| n.max(1)).collect();
+        if counts.is_empty() {
+            counts.push(DEFAULT_SUBSTEPS);
+        }
+        counts.sort_unstable();
+        counts.dedup();
+        let fine = counts
+            .into_iter()
+            .map(|substeps| Fine { substeps, step: StepTable::new(&string, h / substeps as f64) })
+            .collect();
         // Stay sub-stepped through force-free gaps up to 100 us: a stiff contact
         // chatters with micro-separations of tens of microseconds.
         let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
@@ -222,8 +271,7 @@ impl StruckString {
             string,
             bank,
             audio,
-            sub,
-            substeps,
+            fine,
             hold_samples,
             hammer_tables: None,
             tangent_tables: None,
@@ -236,7 +284,10 @@ impl StruckString {
                 felt: Felt::default(),
                 force_n: 0.0,
                 earlier_force_n: [0.0; 2],
+                earlier_compression_m: [0.0; 2],
+                binomial: idle_hammer.law.binomial(),
                 absorbed_j: 0.0,
+                fine: 0,
                 substepping: false,
                 quiet_samples: 0,
                 time_s: 0.0,
@@ -273,7 +324,7 @@ impl StruckString {
         match self.exciter {
             Exciter::Hammer if self.hammer.substepping => {
                 let tables = self.hammer_tables.as_ref().expect("a hammer in play has tables");
-                self.bank.apply_ramp(&tables.sub, self.hammer.force_n);
+                self.bank.apply_ramp(&tables.fine[self.hammer.fine].drive, self.hammer.force_n);
             }
             Exciter::Tangent => {
                 let tables = self.tangent_tables.as_ref().expect("a tangent in play has tables");
@@ -305,9 +356,16 @@ impl StruckString {
         let shape: Vec<f64> = s.modes.iter().map(|m| s.shape_at(m, position)).collect();
         let m = s.modal_mass_kg();
         let audio = self.drive_at(&self.audio, Hold::End, |i| shape[i] / m, |i| shape[i]);
-        let sub = self.drive_at(&self.sub, Hold::End, |i| shape[i] / m, |i| shape[i]);
-        let residual = Residual::new(s, position, self.audio.step_s, self.substeps);
-        self.hammer_tables = Some(HammerTables { position, audio, sub, residual });
+        let residual = Residual::new(s, position, self.audio.step_s);
+        let fine = self
+            .fine
+            .iter()
+            .map(|f| FineDrive {
+                drive: self.drive_at(&f.step, Hold::End, |i| shape[i] / m, |i| shape[i]),
+                relax: residual.relax(f.step.step_s),
+            })
+            .collect();
+        self.hammer_tables = Some(HammerTables { position, audio, fine, residual });
     }
 
     /// Build the tables for a tangent at the far end. Allocates.
@@ -353,10 +411,18 @@ impl StruckString {
         self.bank.kick(&self.bridge_kick, dv_m_s);
     }
 
-    /// Throw a hammer at the string as it is now. Allocates only when the hammer
-    /// tables were not prepared for `spec.position`.
+    /// Throw a hammer at the string as it is now, sub-stepped as finely as the
+    /// string has tables for. Allocates only when the hammer tables were not
+    /// prepared for `spec.position`.
     pub fn strike(&mut self, spec: HammerSpec) {
+        self.strike_substepped(spec, usize::MAX);
+    }
+
+    /// [`Self::strike`] with the fewest sub-steps per sample of at least
+    /// `substeps` the string has tables for (the most it has, if none reach it).
+    pub fn strike_substepped(&mut self, spec: HammerSpec, substeps: usize) {
         self.release_exciter();
+        let fine = self.fine.iter().position(|f| f.substeps >= substeps).unwrap_or(self.fine.len() - 1);
         if self.hammer_tables.as_ref().is_none_or(|t| t.position != spec.position) {
             self.prepare_hammer(spec.position);
         }
@@ -369,7 +435,10 @@ impl StruckString {
             felt: Felt::default(),
             force_n: 0.0,
             earlier_force_n: [0.0; 2],
+            earlier_compression_m: [0.0; 2],
+            binomial: spec.law.binomial(),
             absorbed_j: 0.0,
+            fine,
             substepping: true,
             quiet_samples: 0,
             time_s: 0.0,
@@ -597,7 +666,7 @@ impl StruckString {
             Exciter::Hammer => {
                 let d = &self.hammer;
                 let t = self.hammer_tables.as_ref().expect("a hammer in play has tables");
-                let (drive, force) = if d.substepping { (&t.sub, d.force_n) } else { (&t.audio, 0.0) };
+                let (drive, force) = if d.substepping { (&t.fine[d.fine].drive, d.force_n) } else { (&t.audio, 0.0) };
                 Tick {
                     contact_force_n: d.hammer.spec.law.force_n(d.compression_m),
                     bridge_force_n: bridge + drive.bridge_per_input * force + t.residual.bridge_force_n(d.residual_m),
@@ -651,8 +720,7 @@ impl StruckString {
                 Self::tick_hammer(
                     &mut self.bank,
                     &self.audio,
-                    &self.sub,
-                    self.substeps,
+                    &self.fine,
                     self.hold_samples,
                     tables,
                     &mut self.hammer,
@@ -688,8 +756,7 @@ impl StruckString {
     fn tick_hammer(
         bank: &mut ModalBank,
         audio: &StepTable,
-        sub: &StepTable,
-        substeps: usize,
+        fine: &[Fine],
         hold_samples: usize,
         t: &HammerTables,
         d: &mut HammerState,
@@ -722,22 +789,30 @@ impl StruckString {
             d.substepping = true;
             d.quiet_samples = 0;
         }
+        let Fine { substeps, step: ref sub } = fine[d.fine];
+        let FineDrive { drive: ref t_sub, relax } = t.fine[d.fine];
         let h = sub.step_s;
-        let relax = t.residual.relax_sub;
         let compliance =
-            d.hammer.compliance_m_n(h) + t.sub.observe_per_input + (1.0 - relax) * t.residual.compliance_m_n;
+            d.hammer.compliance_m_n(h) + t_sub.observe_per_input + (1.0 - relax) * t.residual.compliance_m_n;
         let mut any_force = false;
         let mut tick = Tick::default();
         for _ in 0..substeps {
-            let (y_hat, bridge_hat) = bank.step_driven(sub, &t.sub, d.force_n);
+            let (y_hat, bridge_hat) = bank.step_driven(sub, t_sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
-            // The force's course so far, carried on by a parabola, is the solve's first guess.
+            // The courses of force and compression so far, carried on by parabolas,
+            // are the solve's guesses (the compression's does not wait on this pass).
             let [f1, f2] = d.earlier_force_n;
-            let guess = 3.0 * (d.force_n - f1) + f2;
+            let [c1, c2] = d.earlier_compression_m;
+            let guess = Guess {
+                force_n: 3.0 * (d.force_n - f1) + f2,
+                compression_m: 3.0 * (d.compression_m - c1) + c2,
+                binomial: &d.binomial,
+            };
             let (ContactStep { compression_m, step_force_n: force, .. }, felt) =
                 d.hammer.spec.law.step(d.felt, c_hat, compliance, Some(guess));
             d.earlier_force_n = [d.force_n, f1];
+            d.earlier_compression_m = [d.compression_m, c1];
             d.felt = felt;
             d.hammer.commit(h, eta_hat, force);
             let residual_m = relax * d.residual_m + (1.0 - relax) * t.residual.compliance_m_n * force;
@@ -753,9 +828,9 @@ impl StruckString {
             observer.step(d.time_s, compression_m, felt_force_n);
             tick = Tick {
                 contact_force_n: felt_force_n,
-                bridge_force_n: bridge_hat + t.sub.bridge_per_input * force + t.residual.bridge_force_n(residual_m),
+                bridge_force_n: bridge_hat + t_sub.bridge_per_input * force + t.residual.bridge_force_n(residual_m),
                 exciter_position_m: Some(d.hammer.position_m),
-                string_position_m: y_hat + t.sub.observe_per_input * force + residual_m,
+                string_position_m: y_hat + t_sub.observe_per_input * force + residual_m,
             };
         }
         if any_force {

@@ -15,6 +15,7 @@ use crate::modal_bank::{LANES, lane_sum};
 use crate::pluck::PluckSpec;
 use crate::string::StringError;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+use crate::substeps::SubstepPlan;
 use crate::tangent::{self, TangentSpec};
 
 use super::CONTROL_BLOCK;
@@ -53,6 +54,8 @@ struct Note {
     exciter: ExciterDesign,
     /// Its pitch over the course's own.
     pitch_ratio: f64,
+    /// How finely its hammer's strikes are sub-stepped (none for other exciters).
+    substeps: Option<SubstepPlan>,
 }
 
 pub(super) struct Key {
@@ -101,24 +104,53 @@ pub(super) struct Key {
 }
 
 impl Key {
-    /// Build every table the key will need. Allocates; off the audio thread.
-    pub fn build(design: KeyDesign, sample_rate_hz: f64) -> Result<Self, StringError> {
+    /// Build every table the key will need, for touches up to `top_speed_m_s`.
+    /// Allocates; off the audio thread.
+    pub fn build(design: KeyDesign, sample_rate_hz: f64, top_speed_m_s: f64) -> Result<Self, StringError> {
         let mut notes = vec![Note {
             midi_key: design.midi_key,
             struck: design.struck.clone(),
             exciter: design.exciter,
             pitch_ratio: 1.0,
+            substeps: None,
         }];
         notes.extend(design.shared.iter().map(|s| Note {
             midi_key: s.midi_key,
             struck: s.struck.clone(),
             exciter: s.exciter,
             pitch_ratio: s.pitch_ratio,
+            substeps: None,
         }));
         notes.truncate(MAX_NOTES);
+        let modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
+        // Each hammer's strikes measured on the last string it reaches, with its
+        // share of the hammer (as `press` splits it).
+        for note in &mut notes {
+            if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last)) =
+                (note.exciter, note.struck.clone().last())
+            {
+                let n = note.struck.len() as f64;
+                let hammer = HammerSpec {
+                    mass_kg: mass_kg / n,
+                    law: ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent },
+                    speed_m_s: top_speed_m_s,
+                    position,
+                };
+                note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
+            }
+        }
         let mut strings = Vec::with_capacity(design.strings.len());
-        for (i, spec) in design.strings.iter().enumerate() {
-            let mut s = StruckString::new(spec.build()?, sample_rate_hz, DEFAULT_SUBSTEPS);
+        for (i, string) in modes.into_iter().enumerate() {
+            let mut counts: Vec<usize> = notes
+                .iter()
+                .filter(|n| n.struck.contains(&i))
+                .filter_map(|n| n.substeps.as_ref())
+                .flat_map(SubstepPlan::counts)
+                .collect();
+            if counts.is_empty() {
+                counts.push(DEFAULT_SUBSTEPS);
+            }
+            let mut s = StruckString::with_substep_counts(string, sample_rate_hz, &counts);
             for note in notes.iter().filter(|n| n.struck.contains(&i)) {
                 match note.exciter {
                     ExciterDesign::Hammer { position, .. } => s.prepare_hammer(position),
@@ -234,13 +266,15 @@ impl Key {
                 let skip = usize::from(una_corda && n >= 2);
                 let struck = (n - skip) as f64;
                 let stiffness = law.stiffness * hardness * if una_corda { UNA_CORDA_STIFFNESS } else { 1.0 };
+                let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
                 for s in &mut strings[skip..] {
-                    s.strike(HammerSpec {
+                    let hammer = HammerSpec {
                         mass_kg: mass_kg / struck,
                         law: ContactLaw { stiffness: stiffness / struck, exponent: law.exponent },
                         speed_m_s: touch,
                         position,
-                    });
+                    };
+                    s.strike_substepped(hammer, substeps);
                 }
             }
             ExciterDesign::Tangent { displacement_m, .. } => {

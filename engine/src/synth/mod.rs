@@ -153,7 +153,7 @@ impl Instrument {
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
             let design = tuned(design, &frequencies_hz);
             {
-                match Key::build(design, fs) {
+                match Key::build(design, fs, settings.kind.touch_range().max) {
                     Ok(key) => {
                         for (note, k) in key.note_keys() {
                             route[k as usize & 127] = Some((midi_key, note as u8));

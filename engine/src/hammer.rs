@@ -27,6 +27,21 @@ pub struct HammerSpec {
     pub position: f64,
 }
 
+impl HammerSpec {
+    /// One string's share of a hammer of `mass_kg` on felt `law` striking
+    /// `strings` strings of a course at once: each string meets mass / n on
+    /// stiffness K / n, so together they take the whole hammer's force.
+    pub fn one_of(strings: usize, mass_kg: f64, law: ContactLaw, speed_m_s: f64, position: f64) -> Self {
+        let n = strings.max(1) as f64;
+        Self {
+            mass_kg: mass_kg / n,
+            law: ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent },
+            speed_m_s,
+            position,
+        }
+    }
+}
+
 /// The moving hammer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hammer {
@@ -63,6 +78,17 @@ impl Hammer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_course_shares_the_hammer_so_its_strings_add_up_to_it() {
+        let law = ContactLaw { stiffness: 4.5e9, exponent: 2.5 };
+        let one = HammerSpec::one_of(3, 0.009, law, 3.0, 0.12);
+        assert_eq!((one.mass_kg, one.law.stiffness, one.law.exponent), (0.009 / 3.0, 4.5e9 / 3.0, 2.5));
+        assert_eq!((one.speed_m_s, one.position), (3.0, 0.12));
+        // Three strings pressed alike give back the whole hammer's force.
+        let c = 2e-4;
+        assert!((3.0 * one.law.force_n(c) - law.force_n(c)).abs() <= 1e-12 * law.force_n(c));
+    }
 
     #[test]
     fn held_force_moves_the_hammer_exactly() {

@@ -77,22 +77,28 @@ impl SubstepPlan {
     /// The fewest sub-steps per sample (a power of two, at most [`MAX_SUBSTEPS`])
     /// that keep a strike at `speed_m_s` within [`ERROR_BUDGET`].
     pub fn substeps(&self, speed_m_s: f64) -> usize {
-        // e_2 (2 / N)^2 <= budget.
-        let needed = 2.0 * (self.error_at_two(speed_m_s) / ERROR_BUDGET).sqrt();
-        if !(needed > 1.0) {
-            return 1;
-        }
-        if needed >= MAX_SUBSTEPS as f64 {
-            return MAX_SUBSTEPS;
-        }
-        (needed.ceil() as usize).next_power_of_two()
+        substeps_for(self.error_at_two(speed_m_s))
     }
 
     /// Every count [`Self::substeps`] can answer up to the top speed: the powers
-    /// of two up to the most any measured speed needs.
+    /// of two up to the most any measured speed needs (between measured speeds
+    /// the error is interpolated, so it never exceeds theirs).
     pub fn counts(&self) -> Vec<usize> {
-        let most = self.points.iter().map(|p| self.substeps(p.0.exp())).max().unwrap_or(1);
+        let most = self.points.iter().map(|&(_, ln_error)| substeps_for(ln_error.exp())).max().unwrap_or(1);
         std::iter::successors(Some(1), |n| Some(n * 2)).take_while(|&n| n <= most).collect()
+    }
+}
+
+/// The fewest sub-steps (a power of two, at most [`MAX_SUBSTEPS`]) for a strike
+/// whose error at 2 sub-steps is `error_at_two`: e_2 (2 / N)^2 <= budget.
+fn substeps_for(error_at_two: f64) -> usize {
+    let needed = 2.0 * (error_at_two / ERROR_BUDGET).sqrt();
+    if !(needed > 1.0) {
+        1
+    } else if needed >= MAX_SUBSTEPS as f64 {
+        MAX_SUBSTEPS
+    } else {
+        (needed.ceil() as usize).next_power_of_two()
     }
 }
 
@@ -126,7 +132,6 @@ pub fn strike_difference(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::ContactLaw;
     use crate::instrument::{self, ExciterDesign, InstrumentKind, Voicing};
 
     const FS: f64 = 48_000.0;
@@ -135,10 +140,8 @@ mod tests {
     fn piano_key(key: u8, speed_m_s: f64) -> (StringModes, HammerSpec) {
         let d = instrument::design(InstrumentKind::Piano, &Voicing::default(), key, 20_000.0).unwrap();
         let string = d.strings[d.struck.end - 1].build().unwrap();
-        let n = d.struck.len() as f64;
         let ExciterDesign::Hammer { mass_kg, law, position } = d.exciter else { panic!("a piano key has a hammer") };
-        let law = ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent };
-        (string, HammerSpec { mass_kg: mass_kg / n, law, speed_m_s, position })
+        (string, HammerSpec::one_of(d.struck.len(), mass_kg, law, speed_m_s, position))
     }
 
     #[test]

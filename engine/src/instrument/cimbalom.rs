@@ -274,9 +274,8 @@ mod tests {
     fn beater(key: u8) -> (KeyDesign, HammerSpec) {
         let d = design(&Voicing::default(), key, 20_000.0);
         let ExciterDesign::Hammer { mass_kg, law, position } = d.exciter else { panic!("not a beater") };
-        let n = d.strings.len() as f64;
-        let law = ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent };
-        (d, HammerSpec { mass_kg: mass_kg / n, law, speed_m_s: 1.0, position })
+        let hammer = HammerSpec::one_of(d.strings.len(), mass_kg, law, 1.0, position);
+        (d, hammer)
     }
 
     #[test]

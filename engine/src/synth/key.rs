@@ -129,27 +129,18 @@ impl Key {
             if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last)) =
                 (note.exciter, note.struck.clone().last())
             {
-                let n = note.struck.len() as f64;
-                let hammer = HammerSpec {
-                    mass_kg: mass_kg / n,
-                    law: ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent },
-                    speed_m_s: top_speed_m_s,
-                    position,
-                };
+                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position);
                 note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
             }
         }
         let mut strings = Vec::with_capacity(design.strings.len());
         for (i, string) in modes.into_iter().enumerate() {
-            let mut counts: Vec<usize> = notes
+            let counts: Vec<usize> = notes
                 .iter()
                 .filter(|n| n.struck.contains(&i))
                 .filter_map(|n| n.substeps.as_ref())
                 .flat_map(SubstepPlan::counts)
                 .collect();
-            if counts.is_empty() {
-                counts.push(DEFAULT_SUBSTEPS);
-            }
             let mut s = StruckString::with_substep_counts(string, sample_rate_hz, &counts);
             for note in notes.iter().filter(|n| n.struck.contains(&i)) {
                 match note.exciter {
@@ -264,16 +255,11 @@ impl Key {
                 let n = strings.len();
                 // Una corda shifts the action: the first string of a unison is missed.
                 let skip = usize::from(una_corda && n >= 2);
-                let struck = (n - skip) as f64;
                 let stiffness = law.stiffness * hardness * if una_corda { UNA_CORDA_STIFFNESS } else { 1.0 };
+                let felt = ContactLaw { stiffness, exponent: law.exponent };
+                let hammer = HammerSpec::one_of(n - skip, mass_kg, felt, touch, position);
                 let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
                 for s in &mut strings[skip..] {
-                    let hammer = HammerSpec {
-                        mass_kg: mass_kg / struck,
-                        law: ContactLaw { stiffness: stiffness / struck, exponent: law.exponent },
-                        speed_m_s: touch,
-                        position,
-                    };
                     s.strike_substepped(hammer, substeps);
                 }
             }

@@ -499,15 +499,7 @@ impl ModalBank {
         {
             let avx512 = is_x86_feature_detected!("avx512f");
             if avx512 || (is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
-                let slices = x86::Driven {
-                    re: &mut self.re,
-                    im: &mut self.im,
-                    pole_re: &step.pole_re,
-                    pole_im: &step.pole_im,
-                    carry_re: &drive.carry_re,
-                    carry_im: &drive.carry_im,
-                    observe: &drive.observe,
-                };
+                let slices = x86::Driven::of(&mut self.re, &mut self.im, step, drive);
                 // SAFETY: the features each kernel is compiled for were detected just above.
                 let result = unsafe {
                     if avx512 {
@@ -923,15 +915,7 @@ mod tests {
                     &drive.observe,
                     input,
                 );
-                let d = x86::Driven {
-                    re: &mut b.re,
-                    im: &mut b.im,
-                    pole_re: &step.pole_re,
-                    pole_im: &step.pole_im,
-                    carry_re: &drive.carry_re,
-                    carry_im: &drive.carry_im,
-                    observe: &drive.observe,
-                };
+                let d = x86::Driven::of(&mut b.re, &mut b.im, &step, &drive);
                 let vector = kernel(d, input).expect("slices that fit");
                 assert_eq!(portable.1.to_bits(), vector.1.to_bits(), "{name}: bridge force at step {k}");
                 assert!((portable.0 - vector.0).abs() <= 1e-12 * portable.0.abs().max(1e-30), "{name}: observation");

@@ -21,7 +21,20 @@ pub(super) struct Driven<'a> {
     pub observe: &'a [f64],
 }
 
-impl Driven<'_> {
+impl<'a> Driven<'a> {
+    /// A bank's state (`re`, `im`) with the tables of one driven step.
+    pub fn of(re: &'a mut [f64], im: &'a mut [f64], step: &'a super::StepTable, drive: &'a super::DriveTable) -> Self {
+        Self {
+            re,
+            im,
+            pole_re: &step.pole_re,
+            pole_im: &step.pole_im,
+            carry_re: &drive.carry_re,
+            carry_im: &drive.carry_im,
+            observe: &drive.observe,
+        }
+    }
+
     fn groups(&self) -> Option<usize> {
         let n = self.re.len();
         let same = [self.im.len(), self.pole_re.len(), self.pole_im.len(), self.carry_re.len(), self.carry_im.len()]

@@ -250,8 +250,9 @@ impl Drop for QuietAlsa {
     }
 }
 
-/// How long the backend may take to stop after a stop signal.
-const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(3);
+/// How long the backend may take to stop after a stop signal. A clean stop takes
+/// under 0.1 s; a session manager (and the JACK session test) allows 5 s in all.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// nice-plug 0.4.2's JACK backend can deadlock while stopping (its process callback
 /// returns Quit while the main thread deactivates the client; both then wait on the

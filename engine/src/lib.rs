@@ -29,22 +29,19 @@
 //!    settings change and hands them over through lock-free queues.
 //!
 //! [`preset`] keeps an instrument, voicing, controls and tuning under a name (the
-//! factory presets and the user's). [`lab`] runs one strike case end to end (the `struck strike` command) and
-//! [`analysis`] measures the results. [`perf`] measures the modal bank's speed.
+//! factory presets and the user's). The lab (strike cases, analysis, speed
+//! workloads, figures) is a crate of its own, `struck-lab`.
 //!
 //! Units are SI throughout and carried in names (`_hz`, `_m`, `_n`, `_s`).
 
 // Checks are written `!(x > 0.0)` on purpose: a NaN must fail them.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod analysis;
 pub mod contact;
 pub mod damping;
 pub mod hammer;
 pub mod instrument;
-pub mod lab;
 pub mod modal_bank;
-pub mod perf;
 pub mod pluck;
 pub mod preset;
 pub mod residual;

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use struck_engine::lab::seed;
+use struck_lab::strike::seed;
 use struck_tests::{stderr, stdout, struck};
 
 /// The demo, run once for every test here.

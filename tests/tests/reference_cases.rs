@@ -10,7 +10,7 @@
 //! 30 ms within 5 % relative RMS.
 
 use serde_json::Value;
-use struck_engine::analysis::filter::{lowpass_20k, relative_rms_error, rms};
+use struck_lab::analysis::filter::{lowpass_20k, relative_rms_error, rms};
 use struck_tests::{Csv, read_json, reference_dir, stderr, struck};
 
 fn within(what: &str, value: f64, expected: f64, tolerance: f64) {

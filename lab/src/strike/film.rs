@@ -9,8 +9,8 @@
 //! enough to see it thrown off, as the seed's animations end. A tangent or a
 //! pluck is filmed for a given number of periods of the string.
 
-use crate::lab::case::{ExciterSpec, StrikeCase};
-use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+use crate::strike::case::{ExciterSpec, StrikeCase};
+use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 /// Points along the string in each frame.
 pub const SHAPE_POINTS: usize = 161;
@@ -109,7 +109,7 @@ pub fn film(case: &StrikeCase, frames: usize, periods: f64) -> Film {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lab::seed;
+    use crate::strike::seed;
 
     #[test]
     fn the_santoor_film_ends_with_the_mallet_thrown_clear() {

@@ -4,13 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::strike::{self, StrikeCase, seed};
 use clap::{Args, Subcommand};
 use struck_engine::instrument::InstrumentKind;
-use struck_engine::lab::{self, StrikeCase, seed};
 
-use crate::Failure;
+use crate::cli::Failure;
+use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
-use crate::hammer_figures::{self, GridOptions};
 
 /// Largest grid side accepted.
 pub const MAX_GRID: usize = 512;
@@ -110,7 +110,7 @@ fn parse_kind(name: &str) -> Result<InstrumentKind, Failure> {
 pub fn read_case(path: &Path, sets: &[String]) -> Result<StrikeCase, Failure> {
     let shown = path.display();
     let text = std::fs::read_to_string(path).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
-    lab::parse_case(&text, sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))
+    strike::parse_case(&text, sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))
 }
 
 fn check_grid(grid: usize) -> Result<(), Failure> {
@@ -151,7 +151,7 @@ pub fn hammer_case(args: &HammerArgs) -> Result<StrikeCase, Failure> {
         }
     };
     match &mut case.exciter {
-        lab::ExciterSpec::Hammer(h) => {
+        strike::ExciterSpec::Hammer(h) => {
             if let Some(speed) = args.speed {
                 h.speed_m_s = check_speed(speed)?;
             }
@@ -183,13 +183,13 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
             let case = hammer_case(h)?;
             let options = GridOptions { size: h.grid.grid, log_mass: h.grid.log_mass, progress: true };
             create()?;
-            hammer_figures::hammer_charts(&case, &options, out, "hammer").map_err(failed)?
+            hammer::hammer_charts(&case, &options, out, "hammer").map_err(failed)?
         }
         Chart::Universal(u) => {
             check_grid(u.grid)?;
             let options = GridOptions { size: u.grid, log_mass: true, progress: true };
             create()?;
-            hammer_figures::universal_charts(&options, out).map_err(failed)?
+            hammer::universal_charts(&options, out).map_err(failed)?
         }
         Chart::Stringing(s) => {
             let kind = parse_kind(&s.instrument)?;
@@ -209,9 +209,9 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                     })?;
                     let mut c = case.clone();
                     match &mut c.exciter {
-                        lab::ExciterSpec::Hammer(h) => h.speed_m_s = v,
-                        lab::ExciterSpec::Tangent(t) => t.speed_m_s = v,
-                        lab::ExciterSpec::Pluck(_) => {
+                        strike::ExciterSpec::Hammer(h) => h.speed_m_s = v,
+                        strike::ExciterSpec::Tangent(t) => t.speed_m_s = v,
+                        strike::ExciterSpec::Pluck(_) => {
                             return Err(Failure::bad_input(format!(
                                 "--speeds: {} is a pluck, which has no speed",
                                 path.display()

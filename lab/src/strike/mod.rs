@@ -1,6 +1,6 @@
-//! The lab: `struck strike` as a library. A strike case (one string excited
+//! Strike cases: `struck strike` as a library. A strike case (one string excited
 //! once) is parsed and checked ([`case`]), simulated on the same
-//! [`crate::struck_string::StruckString`] the instrument plays, and measured
+//! [`struck_engine::struck_string::StruckString`] the instrument plays, and measured
 //! ([`mod@run`]): contacts at sub-step resolution, bridge-force level and partials.
 //! [`sweep`] runs many hammer strikes of one string for the hammer design charts,
 //! [`seed`] holds the seed's own experiments as cases, and [`film`] records a

@@ -4,7 +4,7 @@
 //! A chart is a grid of hammers, mass M against felt stiffness K (F = K C^alpha,
 //! alpha fixed), all thrown at the same speed V at the same point of the same
 //! string. Each point is a [`strike_summary`]: the strike is simulated on the
-//! same [`StruckString`] as [`crate::lab::run()`] and measured the same way, but
+//! same [`StruckString`] as [`crate::strike::run()`] and measured the same way, but
 //! only until the hammer can no longer come back ([`StruckString::hammer_clear`]),
 //! which makes a point cost about a millisecond instead of a whole note.
 //!
@@ -45,12 +45,12 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::analysis::spectrum::spectral_centroid_padded_hz;
-use crate::contact::ContactLaw;
-use crate::hammer::HammerSpec;
-use crate::lab::case::{ExciterSpec, MAX_EXPONENT, StrikeCase};
-use crate::lab::run::{CONTACT_MERGE_GAP_S, ContactTracker, merge_contacts};
-use crate::string::{StringError, StringModes};
-use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+use crate::strike::case::{ExciterSpec, MAX_EXPONENT, StrikeCase};
+use crate::strike::run::{CONTACT_MERGE_GAP_S, ContactTracker, merge_contacts};
+use struck_engine::contact::ContactLaw;
+use struck_engine::hammer::HammerSpec;
+use struck_engine::string::{StringError, StringModes};
+use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 /// Bins per harmonic spacing f1 of the spectrum the centroid is read from: the
 /// contact force is zero-padded to at least `CENTROID_BINS_PER_HARMONIC fs / f1`
@@ -90,7 +90,7 @@ pub enum SweepError {
     /// The case is struck by a tangent or plucked.
     #[error("the case's exciter is not a hammer (a sweep varies a hammer's mass and stiffness)")]
     NotAHammer,
-    /// The case's string cannot be built (a case not made by [`crate::lab::parse_case`]).
+    /// The case's string cannot be built (a case not made by [`crate::strike::parse_case`]).
     #[error("the string: {0}")]
     String(#[from] StringError),
     /// A grid mass (kg) or stiffness (N/m^alpha), or the sample rate (Hz), is
@@ -112,7 +112,7 @@ pub enum SweepError {
     NotBracketed { low: f64, high: f64, target_s: f64, low_s: f64, high_s: f64 },
 }
 
-/// What one strike of a hammer did, measured as [`crate::lab::run()`] measures it.
+/// What one strike of a hammer did, measured as [`crate::strike::run()`] measures it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StrikeSummary {
     /// Hammer mass M, kg.
@@ -188,7 +188,7 @@ fn positive(what: &'static str, value: f64) -> Result<f64, SweepError> {
 /// case's duration, whichever comes first, and summarise the strike.
 ///
 /// Contact time, contact counts, peak force and rebound are those
-/// [`crate::lab::run()`] reports for the same case (the same steps, the same
+/// [`crate::strike::run()`] reports for the same case (the same steps, the same
 /// tracker). The centroid uses the same definition on a shorter record,
 /// zero-padded to at least [`CENTROID_BINS_PER_HARMONIC`] bins per f1.
 pub fn strike_summary(case: &StrikeCase) -> Result<StrikeSummary, SweepError> {
@@ -578,10 +578,10 @@ pub fn equivalent_stiffness(case: &StrikeCase, reference_exponent: f64) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::damping::Damping;
-    use crate::lab::{parse_case, run};
-    use crate::pluck::PluckSpec;
-    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
+    use crate::strike::{parse_case, run};
+    use struck_engine::damping::Damping;
+    use struck_engine::pluck::PluckSpec;
+    use struck_engine::string::{Mass, Stiffness, StringSpec, Tuning};
 
     /// tests/data/reference/S1.json: santoor string, 1 g mallet, K = 1e6 N/m linear.
     const S1: &str = r#"{

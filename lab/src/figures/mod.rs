@@ -6,15 +6,17 @@
 //! force pulse are of the whole pulse, spectra of a bridge force of a
 //! Hann-windowed stretch of it.
 
+pub mod hammer;
+
 use std::path::{Path, PathBuf};
 
-use struck_engine::analysis::spectrum::{hann, magnitude_spectrum};
+use crate::analysis::spectrum::{hann, magnitude_spectrum};
+use crate::strike::seed::{self, Stringing};
+use crate::strike::{self, LabRun, StrikeCase};
 use struck_engine::instrument::{InstrumentKind, clavichord_pitch_rise_cents};
-use struck_engine::lab::seed::{self, Stringing};
-use struck_engine::lab::{self, LabRun, StrikeCase};
 use struck_engine::tangent::TangentSpec;
 
-use struck::plot::{Colour, LinePlot, MarkerShape, Scale, Series};
+use crate::plot::{Colour, LinePlot, MarkerShape, Scale, Series};
 
 /// Sample rate of the strike figures, Hz.
 pub const FIGURE_RATE_HZ: f64 = 96_000.0;
@@ -92,8 +94,8 @@ fn spectrum_db(
 
 /// Figs. 3-5: the santoor mallet's force pulse and spectra, at 2/5 and 1/10.
 pub fn santoor(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
-    let at_2_5 = lab::run(&seed::santoor_mallet(1e-3, 0.4, FIGURE_RATE_HZ, 0.5));
-    let at_1_10 = lab::run(&seed::santoor_mallet(1e-3, 0.1, FIGURE_RATE_HZ, 0.5));
+    let at_2_5 = strike::run(&seed::santoor_mallet(1e-3, 0.4, FIGURE_RATE_HZ, 0.5));
+    let at_1_10 = strike::run(&seed::santoor_mallet(1e-3, 0.1, FIGURE_RATE_HZ, 0.5));
     let fs = FIGURE_RATE_HZ;
     let until = contact_end_s(&at_2_5).max(contact_end_s(&at_1_10)) * 1.15;
     let mut drawn = Vec::new();
@@ -193,7 +195,7 @@ pub fn stringing(kind: InstrumentKind, dir: &Path, prefix: &str) -> anyhow::Resu
 pub fn piano_speeds(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fs = FIGURE_RATE_HZ;
     let speeds = seed::boutillon_speeds();
-    let runs: Vec<LabRun> = speeds.iter().map(|&v| lab::run(&seed::piano_c_case(2, 2, v, true, fs, 0.05))).collect();
+    let runs: Vec<LabRun> = speeds.iter().map(|&v| strike::run(&seed::piano_c_case(2, 2, v, true, fs, 0.05))).collect();
     let until = runs.iter().map(contact_end_s).fold(0.0, f64::max) * 1.1;
     let label = |v: f64| format!("{v:.2} m/s");
     let curves = |scale_by_speed: bool| -> Vec<Series> {
@@ -233,7 +235,7 @@ pub fn piano_speeds(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
 /// Fig. 26: the start of C7's bridge force with its contact force.
 pub fn piano_c7(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fs = FIGURE_RATE_HZ;
-    let run = lab::run(&seed::piano_c_case(7, 7, seed::PIANO_MEZZO_SPEED_M_S, true, fs, 0.05));
+    let run = strike::run(&seed::piano_c_case(7, 7, seed::PIANO_MEZZO_SPEED_M_S, true, fs, 0.05));
     let until = (contact_end_s(&run) * 2.5).max(3e-3);
     let fig = timed(
         "Fig. 26: C7, its own hammer at 1 m/s: bridge and contact force",
@@ -310,8 +312,8 @@ pub fn clavichord_strikes(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     let fs = FIGURE_RATE_HZ;
     let second = 1.0;
     let runs: Vec<LabRun> =
-        seed::CLAVICHORD_SPEEDS_M_S.iter().map(|&v| lab::run(&seed::clavichord_case(v, fs, second))).collect();
-    let harp = lab::run(&seed::harpsichord_case(fs, second));
+        seed::CLAVICHORD_SPEEDS_M_S.iter().map(|&v| strike::run(&seed::clavichord_case(v, fs, second))).collect();
+    let harp = strike::run(&seed::harpsichord_case(fs, second));
     let until = 0.06;
     let colours = [Colour::BLACK, Colour::BLUE, Colour::RED];
     let label = |v: f64| format!("tangent {v} m/s");
@@ -375,11 +377,11 @@ pub fn strikes(cases: &[StrikeCase], dir: &Path, normalise_by_speed: bool) -> an
         .enumerate()
         .map(|(i, c)| {
             let speed = match c.exciter {
-                lab::ExciterSpec::Hammer(h) => h.speed_m_s,
-                lab::ExciterSpec::Tangent(t) => t.speed_m_s,
-                lab::ExciterSpec::Pluck(_) => 1.0,
+                strike::ExciterSpec::Hammer(h) => h.speed_m_s,
+                strike::ExciterSpec::Tangent(t) => t.speed_m_s,
+                strike::ExciterSpec::Pluck(_) => 1.0,
             };
-            (c.name.clone().unwrap_or_else(|| format!("case {}", i + 1)), lab::run(c), speed)
+            (c.name.clone().unwrap_or_else(|| format!("case {}", i + 1)), strike::run(c), speed)
         })
         .collect();
     let until = runs.iter().map(|(_, r, _)| contact_end_s(r)).fold(0.0, f64::max).max(2e-3) * 1.2;

@@ -1,24 +1,18 @@
-//! `struck`: the command-line face of Struck.
+//! `struck`'s subcommands: the command-line face of Struck (the plugin's
+//! `main` runs the standalone when no subcommand is given, else [`run`]).
 //!
 //! `struck strike` is the engine's lab bench (one string excited once, every
 //! number written out); `struck chart` and `struck animate` draw the seed's
 //! design charts and animations; `struck demo` redoes the seed's whole lab;
 //! `struck render` plays a MIDI file; `struck bench` measures the speed.
 
-mod animate_cmd;
-mod bench_cmd;
-mod chart_cmd;
-mod demo_cmd;
-mod demo_page;
-mod figures;
-mod hammer_figures;
-mod midi_file;
-mod output;
-mod render_cmd;
-mod seed_sounds;
-mod strike_cmd;
+pub mod animate;
+pub mod bench;
+pub mod chart;
+pub mod demo;
+pub mod render;
+pub mod strike;
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -56,7 +50,7 @@ enum Command {
                             string_position_m). A case that is malformed, contradictory or out of \
                             range is refused with exit status 2 and one line naming the field; \
                             nothing is written then.")]
-    Strike(StrikeArgs),
+    Strike(strike::StrikeArgs),
     /// Measure the speed goals: full-keyboard load, worst block, kernel, 32-key chord, idle.
     #[command(long_about = "Measure the engine's speed goals on this machine, one thread, the piano \
                             played through the real-time synth at 48 kHz in blocks of 64 samples: \
@@ -77,7 +71,7 @@ enum Command {
                             speed playing chords with the pedal down. Prints the CPU model and \
                             the SIMD kernel in use. Build with --release for meaningful figures. \
                             A bad argument is refused with exit status 2 and one line.")]
-    Bench(BenchArgs),
+    Bench(bench::BenchArgs),
     /// Play a MIDI file through the instrument and write a WAV.
     #[command(long_about = "Play a standard MIDI file (format 0 or 1; tempo changes and SMPTE \
                             timing honoured; every channel but 10 merged onto the one instrument) \
@@ -91,7 +85,7 @@ enum Command {
                             A bad argument, preset, tuning file or MIDI file is refused with exit \
                             status 2 and one line naming it; no WAV is written then, and an \
                             existing one is kept.")]
-    Render(render_cmd::RenderArgs),
+    Render(render::RenderArgs),
     /// Draw design charts as PNG + CSV: hammer, universal, stringing, strike, clavichord.
     #[command(long_about = "Draw the lab's charts, each a PNG with the numbers behind it as a CSV, \
                             into --out DIR. `hammer`: a grid of hammer mass x contact stiffness for \
@@ -102,58 +96,15 @@ enum Command {
                             (Figs. 8-10). `strike`: contact and bridge force and their spectra for \
                             strike cases. `clavichord`: pitch rise, tangent motion, Q (Figs. 29-31). \
                             Grids run on every core and report how long they took.")]
-    Chart(chart_cmd::ChartArgs),
+    Chart(chart::ChartArgs),
     /// Animate a strike case as a GIF: the string's shape, the hammer and the struck point.
-    Animate(animate_cmd::AnimateArgs),
+    Animate(animate::AnimateArgs),
     /// Redo the seed's lab: Sounds 1-12, every figure, the animations and an index.html.
     #[command(long_about = "Render Euphonics 12.2's Sounds 1-12 as WAVs, every figure as a PNG \
                             with its CSV, the animations as GIFs, and DIR/index.html showing them \
                             with captions and audio players in the seed's order. Offline, no \
                             sound card; --quick uses coarser hammer charts.")]
-    Demo(demo_cmd::DemoArgs),
-}
-
-#[derive(clap::Args)]
-pub struct StrikeArgs {
-    /// The strike case (JSON).
-    pub case: PathBuf,
-    /// Directory for metrics.json and trace.csv (created if missing).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Also write the bridge force as a 32-bit float WAV at the case's sample rate.
-    #[arg(long, value_name = "FILE")]
-    pub wav: Option<PathBuf>,
-    /// Gain from newtons to WAV full scale, in dB (0 dB: 1 N = 1.0). Without it the
-    /// WAV is normalised to a peak of -1 dBFS. A fixed gain keeps the relative
-    /// loudness of several strikes.
-    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
-    pub wav_gain_db: Option<f64>,
-    /// Change one field of the case before it is checked, e.g. --set exciter.speed_m_s=2.5
-    /// (repeatable; the value is JSON, or a bare word for a string).
-    #[arg(long = "set", value_name = "PATH=VALUE")]
-    pub sets: Vec<String>,
-    /// Print nothing on success.
-    #[arg(long, short)]
-    pub quiet: bool,
-}
-
-#[derive(clap::Args)]
-pub struct BenchArgs {
-    /// Scales the run: the full keyboard is held 4 S seconds and released for 2 S, the
-    /// kernel timed for S, the idle piano for 2 S (0 < S <= 600; 1 takes a few seconds).
-    #[arg(long, default_value_t = 1.0, value_name = "S", allow_negative_numbers = true)]
-    pub seconds: f64,
-    /// Runs of each workload; the fastest is kept (1 to 100).
-    #[arg(long, default_value_t = 3, value_name = "N")]
-    pub runs: usize,
-    /// Write only one JSON object to stdout (every figure nested and under its dotted
-    /// name, e.g. "full_keyboard.load_fraction"), no text.
-    #[arg(long)]
-    pub json: bool,
-    /// Also measure each instrument playing chords with the pedal down (about 10 S
-    /// seconds of audio each, at least 1, at most 60).
-    #[arg(long)]
-    pub instruments: bool,
+    Demo(demo::DemoArgs),
 }
 
 /// A failure with the exit status it deserves; printed as one line.
@@ -173,19 +124,21 @@ impl Failure {
     }
 }
 
-fn main() -> ExitCode {
-    // No subcommand: Struck plays live (nice-plug's standalone reads its own options).
-    if let Some(status) = struck::standalone::run_unless_subcommand(&<Cli as clap::CommandFactory>::command()) {
-        return status;
-    }
+/// The clap description of every subcommand (the standalone reads the rest of the command line).
+pub fn command() -> clap::Command {
+    <Cli as clap::CommandFactory>::command()
+}
+
+/// Parse the command line and run the subcommand it names; the exit status.
+pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Strike(args) => strike_cmd::run(&args).map_err(|e| ("struck strike", e)),
-        Command::Bench(args) => bench_cmd::run(&args).map_err(|e| ("struck bench", e)),
-        Command::Render(args) => render_cmd::run(&args).map_err(|e| ("struck render", e)),
-        Command::Chart(args) => chart_cmd::run(&args).map_err(|e| ("struck chart", e)),
-        Command::Animate(args) => animate_cmd::run(&args).map_err(|e| ("struck animate", e)),
-        Command::Demo(args) => demo_cmd::run(&args).map_err(|e| ("struck demo", e)),
+        Command::Strike(args) => strike::run(&args).map_err(|e| ("struck strike", e)),
+        Command::Bench(args) => bench::run(&args).map_err(|e| ("struck bench", e)),
+        Command::Render(args) => render::run(&args).map_err(|e| ("struck render", e)),
+        Command::Chart(args) => chart::run(&args).map_err(|e| ("struck chart", e)),
+        Command::Animate(args) => animate::run(&args).map_err(|e| ("struck animate", e)),
+        Command::Demo(args) => demo::run(&args).map_err(|e| ("struck demo", e)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,12 +5,12 @@
 
 use std::path::{Path, PathBuf};
 
-use struck_engine::lab::film::{self, SHAPE_POINTS};
-use struck_engine::lab::{ExciterSpec, StrikeCase};
+use crate::strike::film::{self, SHAPE_POINTS};
+use crate::strike::{ExciterSpec, StrikeCase};
 
-use crate::Failure;
-use crate::chart_cmd::read_case;
-use struck::plot::{Animation, AnimationFrame};
+use crate::cli::Failure;
+use crate::cli::chart::read_case;
+use crate::plot::{Animation, AnimationFrame};
 
 /// Most frames accepted.
 pub const MAX_FRAMES: usize = 1000;

@@ -11,12 +11,31 @@
 use std::io::Write;
 use std::time::Duration;
 
+use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
 use struck_engine::instrument::InstrumentKind;
-use struck_engine::perf::{self, workload};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 
-use crate::{BenchArgs, Failure};
+use crate::cli::Failure;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Scales the run: the full keyboard is held 4 S seconds and released for 2 S, the
+    /// kernel timed for S, the idle piano for 2 S (0 < S <= 600; 1 takes a few seconds).
+    #[arg(long, default_value_t = 1.0, value_name = "S", allow_negative_numbers = true)]
+    pub seconds: f64,
+    /// Runs of each workload; the fastest is kept (1 to 100).
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub runs: usize,
+    /// Write only one JSON object to stdout (every figure nested and under its dotted
+    /// name, e.g. "full_keyboard.load_fraction"), no text.
+    #[arg(long)]
+    pub json: bool,
+    /// Also measure each instrument playing chords with the pedal down (about 10 S
+    /// seconds of audio each, at least 1, at most 60).
+    #[arg(long)]
+    pub instruments: bool,
+}
 
 const SAMPLE_RATE_HZ: f64 = workload::SAMPLE_RATE_HZ;
 const BLOCK: usize = workload::BLOCK;

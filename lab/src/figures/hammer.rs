@@ -1,5 +1,5 @@
 //! The hammer design charts (Euphonics 12.2, Figs. 15-17) and the universal
-//! chart (Figs. 18-22), drawn from [`struck_engine::lab::sweep`].
+//! chart (Figs. 18-22), drawn from [`crate::strike::sweep`].
 //!
 //! A grid point where the hammer was still pressing on the string when the
 //! simulation stopped (after [`CHART_PERIODS`] periods of the string) has no
@@ -9,13 +9,13 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
+use crate::strike::seed;
+use crate::strike::sweep::{self, GridResult, HammerGrid, StrikeSummary, UniversalScale};
+use crate::strike::{ExciterSpec, StrikeCase};
 use indicatif::{ProgressBar, ProgressStyle};
-use struck_engine::lab::seed;
-use struck_engine::lab::sweep::{self, GridResult, HammerGrid, StrikeSummary, UniversalScale};
-use struck_engine::lab::{ExciterSpec, StrikeCase};
 
 use crate::figures::{Drawn, FIGURE_RATE_HZ};
-use struck::plot::{Colour, ColourMap, Heatmap, Marker, MarkerShape, Scale};
+use crate::plot::{Colour, ColourMap, Heatmap, Marker, MarkerShape, Scale};
 
 /// How long each grid point may run, in periods of the string's first partial.
 pub const CHART_PERIODS: f64 = 30.0;

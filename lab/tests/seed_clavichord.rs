@@ -31,13 +31,13 @@
 //! three times higher or the tangent three times slower, neither of which its
 //! text describes, so the figures are reported, not tuned toward it.
 
-use struck_engine::analysis::spectrum::partial_levels_db;
 use struck_engine::damping::{Damping, PhysicalLoss};
 use struck_engine::instrument::{InstrumentKind, Voicing, design};
 use struck_engine::pluck::PluckSpec;
 use struck_engine::string::{StringModes, StringSpec};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 use struck_engine::tangent::TangentSpec;
+use struck_lab::analysis::spectrum::partial_levels_db;
 
 const SAMPLE_RATE_HZ: f64 = 48_000.0;
 const SECONDS: f64 = 1.0;

@@ -5,15 +5,15 @@
 
 use std::f64::consts::PI;
 
-use struck_engine::analysis::spectrum::{partial_levels_db, track_partial};
 use struck_engine::contact::ContactLaw;
 use struck_engine::damping::Damping;
 use struck_engine::hammer::HammerSpec;
-use struck_engine::lab::run::{CONTACT_MERGE_GAP_S, merge_contacts};
-use struck_engine::lab::{self, ExciterSpec};
 use struck_engine::string::{Mass, Stiffness, StringModes, StringSpec, Tuning};
 use struck_engine::struck_string::{ContactObserver, DEFAULT_SUBSTEPS, StruckString};
 use struck_engine::tangent::TangentSpec;
+use struck_lab::analysis::spectrum::{partial_levels_db, track_partial};
+use struck_lab::strike::run::{CONTACT_MERGE_GAP_S, merge_contacts};
+use struck_lab::strike::{self, ExciterSpec};
 
 /// Broadwood C1 (physics reference 1.10): one wound string, 1.013 m, 189 g,
 /// steel core 1.21 mm (E = 210 GPa), tuned to 32.70 Hz.
@@ -242,14 +242,14 @@ fn contacts(string: StringModes, fs: f64, hammer: HammerSpec) -> (usize, f64, f6
     #[derive(Default)]
     struct Intervals {
         start: Option<f64>,
-        raw: Vec<lab::run::Contact>,
+        raw: Vec<strike::run::Contact>,
     }
     impl ContactObserver for Intervals {
         fn step(&mut self, t_s: f64, _: f64, force_n: f64) {
             match (self.start, force_n > 0.0) {
                 (None, true) => self.start = Some(t_s),
                 (Some(start_s), false) => {
-                    self.raw.push(lab::run::Contact { start_s, end_s: t_s });
+                    self.raw.push(strike::run::Contact { start_s, end_s: t_s });
                     self.start = None;
                 }
                 _ => {}
@@ -364,9 +364,9 @@ fn the_lab_counts_the_second_contact_of_a_mallet_struck_near_the_bridge() {
                  "exciter": {{"kind": "hammer", "mass_kg": 0.001, "stiffness": 1.0e6, "exponent": 1.0,
                              "speed_m_s": 1.0, "position": 0.1}}}}"#
         );
-        let case = lab::parse_case(&text, &[]).unwrap();
+        let case = strike::parse_case(&text, &[]).unwrap();
         assert!(matches!(case.exciter, ExciterSpec::Hammer(_)));
-        let m = lab::run(&case).metrics;
+        let m = strike::run(&case).metrics;
         assert_eq!(m.contact_count, 2, "at {fs} Hz: {:?}", m.contacts);
         let second = m.contacts[1];
         assert!((second.start_s - 1.337e-3).abs() < 0.02e-3, "{second:?}");

@@ -8,9 +8,9 @@
 //! it keeps its level relative to the others (Sound 7's first note is meant to be
 //! barely audible; Sound 12 is quiet clavichord, louder clavichord, harpsichord).
 
+use crate::strike::seed::{self, boutillon_speeds};
+use crate::strike::{self, StrikeCase};
 use rayon::prelude::*;
-use struck_engine::lab::seed::{self, boutillon_speeds};
-use struck_engine::lab::{self, StrikeCase};
 
 /// Sample rate of the sounds, Hz.
 pub const SOUND_RATE_HZ: f64 = 48_000.0;
@@ -132,7 +132,7 @@ pub fn sounds() -> Vec<Sound> {
 /// The strikes of `sound` one after another, high-passed and faded, before
 /// normalising; and the sample where each strike starts.
 pub fn render_raw(sound: &Sound) -> (Vec<f64>, Vec<usize>) {
-    let parts: Vec<Vec<f64>> = sound.strikes.par_iter().map(|case| lab::run(case).trace.bridge_force_n).collect();
+    let parts: Vec<Vec<f64>> = sound.strikes.par_iter().map(|case| strike::run(case).trace.bridge_force_n).collect();
     let mut out = Vec::with_capacity(parts.iter().map(Vec::len).sum());
     let mut starts = Vec::with_capacity(parts.len());
     let fade = (FADE_S * SOUND_RATE_HZ) as usize;

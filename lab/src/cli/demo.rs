@@ -5,16 +5,16 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::strike::seed;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use struck_engine::instrument::InstrumentKind;
-use struck_engine::lab::seed;
 
-use crate::Failure;
-use crate::animate_cmd::{self, FilmOptions};
+use crate::cli::Failure;
+use crate::cli::animate::{self, FilmOptions};
 use crate::demo_page::{self, Entry};
+use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
-use crate::hammer_figures::{self, GridOptions};
 use crate::output::Staged;
 use crate::seed_sounds::{self, SOUND_RATE_HZ};
 
@@ -57,7 +57,7 @@ fn figure(label: &str, caption: &str, drawn: &Drawn) -> Entry {
 
 /// The animations: Fig. 2 (santoor), 23-25 (C2, C4, C7 with their own hammers),
 /// 32 (clavichord at 0.5 m/s).
-fn films() -> Vec<(&'static str, &'static str, String, struck_engine::lab::StrikeCase, f64)> {
+fn films() -> Vec<(&'static str, &'static str, String, crate::strike::StrikeCase, f64)> {
     let fs = figures::FIGURE_RATE_HZ;
     let v = seed::CHART_SPEED_M_S;
     vec![
@@ -157,9 +157,8 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     // Hammer charts.
     let options = GridOptions { size: grid, log_mass: false, progress: true };
     let c4 = seed::piano_c_case(4, 4, seed::CHART_SPEED_M_S, true, figures::FIGURE_RATE_HZ, 0.2);
-    let hammer = hammer_figures::hammer_charts(&c4, &options, out, "fig").map_err(failed)?;
-    let universal =
-        hammer_figures::universal_charts(&GridOptions { log_mass: true, ..options }, out).map_err(failed)?;
+    let hammer = hammer::hammer_charts(&c4, &options, out, "fig").map_err(failed)?;
+    let universal = hammer::universal_charts(&GridOptions { log_mass: true, ..options }, out).map_err(failed)?;
 
     // Animations.
     let films = films();
@@ -168,7 +167,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let mut animations = Vec::new();
     for (label, file, caption, case, periods) in &films {
         let title = format!("{label}: {}", case.name.as_deref().unwrap_or(""));
-        animate_cmd::draw_film(case, *periods, &title, &film_options, &out.join(file)).map_err(failed)?;
+        animate::draw_film(case, *periods, &title, &film_options, &out.join(file)).map_err(failed)?;
         animations.push(Entry::Figure {
             label: label.to_string(),
             caption: caption.clone(),
@@ -179,7 +178,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     }
     progress.finish();
 
-    let captions = hammer_figures::captions();
+    let captions = hammer::captions();
     let mut entries = vec![Entry::Heading("The santoor: a light mallet that bounces".into())];
     entries.push(animations[0].clone());
     entries.push(figure("Fig. 3", "Contact force of the 1 g mallet striking the santoor string at 2/5, 1 m/s: a jump at first touch, a ramp down, a second jump when the reflection from the nearer end returns (with a dispersive precursor ahead of it), until the mallet is thrown clear.", &santoor[0]));

@@ -7,12 +7,12 @@ pub mod workload;
 use std::f64::consts::PI;
 use std::time::{Duration, Instant};
 
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
-use crate::hammer::HammerSpec;
-use crate::modal_bank::{LANES, ModalBank, StepTable};
-use crate::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
-use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
+use struck_engine::contact::ContactLaw;
+use struck_engine::damping::Damping;
+use struck_engine::hammer::HammerSpec;
+use struck_engine::modal_bank::{LANES, ModalBank, StepTable};
+use struck_engine::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
+use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 /// The processor's model name (from /proc/cpuinfo where there is one).
 pub fn cpu_model() -> String {
@@ -152,8 +152,8 @@ pub struct SynthThroughput {
 /// Play `kind` at 48 kHz for `audio_s` seconds in 512-sample blocks: a four-note
 /// chord every 20 blocks (about 0.2 s) wandering over the keyboard, sustain pedal
 /// down throughout, so keys pile up to the polyphony cap of 128.
-pub fn synth_throughput(kind: crate::instrument::InstrumentKind, audio_s: f64) -> SynthThroughput {
-    use crate::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+pub fn synth_throughput(kind: struck_engine::instrument::InstrumentKind, audio_s: f64) -> SynthThroughput {
+    use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
     const BLOCK: usize = 512;
     let start = Instant::now();
     let instrument = Instrument::build(&default_settings(kind, 48_000.0)).expect("the built-in instruments build");

@@ -8,17 +8,17 @@
 //! A piano course (one, two or three strings in unison) is simulated as the seed
 //! does: one string carrying the course's total tension and mass, struck by the
 //! whole hammer. Its strings are the piano instrument's (the Broadwood's C
-//! strings, [`crate::instrument`]), tuned exactly to equal temperament at
+//! strings, [`struck_engine::instrument`]), tuned exactly to equal temperament at
 //! A4 = 440 Hz with a uniform Q of 2000, as in the seed's simulations.
 
-use crate::contact::ContactLaw;
-use crate::damping::{Damping, PhysicalLoss};
-use crate::hammer::HammerSpec;
-use crate::instrument::{ExciterDesign, InstrumentKind, KeyDesign, Voicing, design, key_frequency_hz};
-use crate::lab::case::{ExciterSpec, StrikeCase};
-use crate::pluck::PluckSpec;
-use crate::string::{Mass, Stiffness, StringSpec, Tuning};
-use crate::tangent::TangentSpec;
+use crate::strike::case::{ExciterSpec, StrikeCase};
+use struck_engine::contact::ContactLaw;
+use struck_engine::damping::{Damping, PhysicalLoss};
+use struck_engine::hammer::HammerSpec;
+use struck_engine::instrument::{ExciterDesign, InstrumentKind, KeyDesign, Voicing, design, key_frequency_hz};
+use struck_engine::pluck::PluckSpec;
+use struck_engine::string::{Mass, Stiffness, StringSpec, Tuning};
+use struck_engine::tangent::TangentSpec;
 
 /// Mode cut-off of every seed case, Hz (the instruments' own).
 pub const MAX_FREQUENCY_HZ: f64 = 20_000.0;
@@ -306,7 +306,7 @@ pub fn stringing(kind: InstrumentKind) -> Vec<Stringing> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::string::StringModes;
+    use struck_engine::string::StringModes;
 
     fn built(spec: &StringSpec) -> StringModes {
         spec.build().unwrap()

@@ -1,11 +1,36 @@
 //! `struck strike CASE.json --out DIR [--wav FILE] [--set path=value ...]`.
 
 use std::io::Write;
+use std::path::PathBuf;
 
-use struck_engine::lab::{self, LabRun};
+use crate::strike::{self, LabRun};
 
+use crate::cli::Failure;
 use crate::output::{Staged, csv_field};
-use crate::{Failure, StrikeArgs};
+
+#[derive(clap::Args)]
+pub struct StrikeArgs {
+    /// The strike case (JSON).
+    pub case: PathBuf,
+    /// Directory for metrics.json and trace.csv (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Also write the bridge force as a 32-bit float WAV at the case's sample rate.
+    #[arg(long, value_name = "FILE")]
+    pub wav: Option<PathBuf>,
+    /// Gain from newtons to WAV full scale, in dB (0 dB: 1 N = 1.0). Without it the
+    /// WAV is normalised to a peak of -1 dBFS. A fixed gain keeps the relative
+    /// loudness of several strikes.
+    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
+    pub wav_gain_db: Option<f64>,
+    /// Change one field of the case before it is checked, e.g. --set exciter.speed_m_s=2.5
+    /// (repeatable; the value is JSON, or a bare word for a string).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub sets: Vec<String>,
+    /// Print nothing on success.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
 
 /// Peak level of a normalised WAV: -1 dBFS.
 const NORMALISED_PEAK: f64 = 0.891_250_938;
@@ -14,13 +39,13 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     let shown = args.case.display();
     let text =
         std::fs::read_to_string(&args.case).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
-    let case = lab::parse_case(&text, &args.sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
+    let case = strike::parse_case(&text, &args.sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
     if let Some(gain) = args.wav_gain_db
         && !gain.is_finite()
     {
         return Err(Failure::bad_input(format!("--wav-gain-db: must be a finite number of dB (got {gain})")));
     }
-    let result = lab::run(&case);
+    let result = strike::run(&case);
     check_finite(&result)?;
 
     let mut staged = Staged::default();

@@ -25,7 +25,7 @@ use struck_engine::preset::Preset;
 use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
-use crate::Failure;
+use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
 use crate::output::Staged;
 

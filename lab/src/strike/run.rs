@@ -5,9 +5,9 @@ use serde::Serialize;
 
 use crate::analysis::filter::{lowpass_20k, rms};
 use crate::analysis::spectrum::{partial_levels_db, spectral_centroid_hz};
-use crate::lab::case::{ExciterSpec, StrikeCase};
-use crate::string::StringModes;
-use crate::struck_string::{ContactObserver, DEFAULT_SUBSTEPS, StruckString};
+use crate::strike::case::{ExciterSpec, StrikeCase};
+use struck_engine::string::StringModes;
+use struck_engine::struck_string::{ContactObserver, DEFAULT_SUBSTEPS, StruckString};
 
 /// Force-free gaps shorter than this inside a contact are chatter, not bounces (s).
 pub const CONTACT_MERGE_GAP_S: f64 = 50e-6;

@@ -14,8 +14,8 @@
 
 use std::time::Instant;
 
-use crate::instrument::InstrumentKind;
-use crate::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+use struck_engine::instrument::InstrumentKind;
+use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
 
 pub const SAMPLE_RATE_HZ: f64 = 48_000.0;
 /// The host's block, samples.

@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use struck_engine::contact::{ContactLaw, Felt, Guess};
-use struck_engine::perf::{contact_string, synthetic_bank};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
+use struck_lab::perf::{contact_string, synthetic_bank};
 
 const BLOCK: usize = 64;
 
@@ -119,7 +119,7 @@ fn instruments(c: &mut Criterion) {
     for kind in struck_engine::instrument::InstrumentKind::ALL {
         // One second of audio per iteration; the figure to read is seconds per second of audio.
         group.throughput(Throughput::Elements(48_000));
-        group.bench_function(kind.name(), |b| b.iter(|| struck_engine::perf::synth_throughput(kind, 1.0)));
+        group.bench_function(kind.name(), |b| b.iter(|| struck_lab::perf::synth_throughput(kind, 1.0)));
     }
     group.finish();
 }

@@ -1,0 +1,492 @@
+//! The performer: the audio thread's half of the plugin, a translator from the
+//! host's note and MIDI events to the engine's [`Event`]s at their sample
+//! positions, and back from keys that fall silent to the host's voice notices.
+
+use nice_plug::prelude::*;
+use struck_engine::synth::{Controls, Delivery, Event, PressureRouter, Synth, TimedEvent};
+
+/// Engine events one `process` call gathers before rendering what it has so far
+/// (an incoming event becomes at most [`MAX_EVENTS_PER_HOST_EVENT`] of them).
+pub const EVENT_CAPACITY: usize = 4096;
+/// Channel pressure becomes one engine event per key held on the channel.
+const MAX_EVENTS_PER_HOST_EVENT: usize = 128;
+
+/// Where the performer's events come from and where ended keys go.
+pub trait EventPort<S> {
+    /// The next host event, in time order.
+    fn next_event(&mut self) -> Option<NoteEvent<S>>;
+    /// A key fell silent at sample `time` of the block; it was last struck by `voice` on `channel`.
+    fn key_ended(&mut self, time: u32, key: u8, voice: VoiceId, channel: u8);
+}
+
+/// A note id as hosts give it (CLAP note ids; none for plain MIDI).
+pub type VoiceId = Option<i32>;
+
+/// The audio thread's half: host events in, engine events and audio out.
+pub struct Performer {
+    synth: Synth,
+    delivery: Delivery,
+    /// Preallocated with [`EVENT_CAPACITY`]; never grows.
+    events: Vec<TimedEvent>,
+    /// Who struck each key last (note id, channel), to name the voice when it ends.
+    voices: [(VoiceId, u8); 128],
+    pressure: PressureRouter,
+    reset_pending: bool,
+}
+
+impl Performer {
+    /// Allocates (the event list).
+    pub fn new(synth: Synth, delivery: Delivery) -> Self {
+        Self {
+            synth,
+            delivery,
+            events: Vec::with_capacity(EVENT_CAPACITY),
+            voices: [(None, 0); 128],
+            pressure: PressureRouter::default(),
+            reset_pending: false,
+        }
+    }
+
+    pub fn synth(&self) -> &Synth {
+        &self.synth
+    }
+
+    /// Silence everything at the start of the next block. Real-time safe.
+    pub fn reset(&mut self) {
+        self.reset_pending = true;
+    }
+
+    /// Render one block. Installs any instrument the workshop has finished, applies
+    /// `controls`, translates the port's events at their sample positions and reports
+    /// keys that fell silent. Returns whether any key still sounds.
+    ///
+    /// Allocates: no. Locks: no.
+    pub fn process<S>(
+        &mut self,
+        controls: Controls,
+        port: &mut impl EventPort<S>,
+        left: &mut [f32],
+        right: &mut [f32],
+    ) -> bool {
+        self.delivery.exchange(&mut self.synth);
+        self.synth.set_controls(controls);
+        let n = left.len().min(right.len());
+        self.events.clear();
+        if std::mem::take(&mut self.reset_pending) {
+            self.events.push(TimedEvent::new(0, Event::Reset));
+            self.pressure.reset();
+        }
+        let mut start = 0;
+        let mut last = 0;
+        while let Some(event) = port.next_event() {
+            // Hosts send events in order; a stray one is applied no earlier than the last.
+            let time = (event.timing() as usize).min(n).max(last);
+            last = time;
+            if self.events.len() + MAX_EVENTS_PER_HOST_EVENT > self.events.capacity() {
+                self.render(start, time, left, right, port);
+                start = time;
+            }
+            self.translate(event, time as u32);
+        }
+        self.render(start, n, left, right, port);
+        self.synth.active_keys() > 0
+    }
+
+    fn render<S>(&mut self, from: usize, to: usize, left: &mut [f32], right: &mut [f32], port: &mut impl EventPort<S>) {
+        for event in &mut self.events {
+            event.time -= from as u32;
+        }
+        self.synth.process(&self.events, &mut left[from..to], &mut right[from..to]);
+        self.events.clear();
+        for ended in self.synth.ended_keys() {
+            let (voice, channel) = self.voices[ended.key as usize & 127];
+            port.key_ended(from as u32 + ended.time, ended.key, voice, channel);
+        }
+    }
+
+    /// One host event as engine events (pushed within capacity).
+    fn translate<S>(&mut self, event: NoteEvent<S>, time: u32) {
+        use nice_plug::midi::Key;
+        let mut push = |event: Event| self.events.push(TimedEvent::new(time, event));
+        match event {
+            NoteEvent::NoteOn { key: Key::Number(key), velocity, voice_id, channel, .. } if key < 128 => {
+                let channel = channel.number().unwrap_or(0);
+                self.voices[key as usize] = (voice_id.id(), channel);
+                push(Event::NoteOn { key, velocity });
+                self.pressure.note_on(key, channel).into_iter().for_each(push);
+            }
+            NoteEvent::NoteOff { key: Key::Number(key), .. } if key < 128 => {
+                self.pressure.note_off(key);
+                push(Event::NoteOff { key });
+            }
+            NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
+            NoteEvent::PolyPressure { key: Key::Number(key), pressure, .. } if key < 128 => {
+                push(Event::Pressure { key, pressure })
+            }
+            NoteEvent::MidiChannelPressure { channel, pressure, .. } => {
+                self.pressure.channel_pressure(channel, pressure, push)
+            }
+            // The engine has no per-key choke: the key's damper falls (or it rings on
+            // where it has none), as after a note-off.
+            NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => {
+                self.pressure.note_off(key);
+                push(Event::NoteOff { key })
+            }
+            NoteEvent::Choke { key: Key::Wildcard, .. } => {
+                self.pressure.reset();
+                push(Event::Reset)
+            }
+            NoteEvent::MidiCC { cc, value, .. } => {
+                Event::from_controller(cc, value).into_iter().flatten().for_each(push)
+            }
+            NoteEvent::MidiPitchBend { value, .. } => push(Event::PitchBend(pitch_wheel(value))),
+            _ => {}
+        }
+    }
+}
+
+/// nice-plug's pitch bend (the 14-bit value / 16383) as -1..=1 with the
+/// centre (8192) exactly at 0.
+pub fn pitch_wheel(value: f32) -> f32 {
+    Event::pitch_wheel((value.clamp(0.0, 1.0) * 16383.0).round() as u16)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+
+    use nice_plug::midi::{Channel, Key, VoiceID};
+    use struck_engine::instrument::InstrumentKind;
+    use struck_engine::rng::Rng;
+    use struck_engine::synth::{Instrument, InstrumentSettings, Workshop};
+
+    use super::*;
+
+    const FS: f64 = 48_000.0;
+
+    /// Events from a preallocated list; ended keys into a preallocated list.
+    struct Port {
+        events: Vec<NoteEvent<()>>,
+        next: usize,
+        ended: Vec<(u32, u8, VoiceId, u8)>,
+    }
+
+    impl Port {
+        fn new() -> Self {
+            Self { events: Vec::with_capacity(8192), next: 0, ended: Vec::with_capacity(8192) }
+        }
+
+        fn load(&mut self, events: &[NoteEvent<()>]) {
+            self.events.clear();
+            self.events.extend_from_slice(events);
+            self.next = 0;
+        }
+    }
+
+    impl EventPort<()> for Port {
+        fn next_event(&mut self) -> Option<NoteEvent<()>> {
+            let event = self.events.get(self.next).copied();
+            self.next += 1;
+            event
+        }
+
+        fn key_ended(&mut self, time: u32, key: u8, voice: VoiceId, channel: u8) {
+            if self.ended.len() < self.ended.capacity() {
+                self.ended.push((time, key, voice, channel));
+            }
+        }
+    }
+
+    fn settings(kind: InstrumentKind) -> InstrumentSettings {
+        struck_engine::synth::default_settings(kind, FS)
+    }
+
+    /// A performer with a workshop following `wanted`.
+    fn performer(wanted: &Arc<Mutex<InstrumentSettings>>) -> (Performer, Workshop) {
+        let first = wanted.lock().unwrap().clone();
+        let (synth, _scope) = Synth::new(Box::new(Instrument::build(&first).unwrap()));
+        let source = wanted.clone();
+        let (workshop, delivery) = Workshop::spawn(first, move || Some(source.lock().unwrap().clone()));
+        (Performer::new(synth, delivery), workshop)
+    }
+
+    fn note_on(timing: u32, key: u8, velocity: f32, voice: i32, channel: u8) -> NoteEvent<()> {
+        NoteEvent::NoteOn {
+            timing,
+            voice_id: VoiceID::ID(voice),
+            channel: Channel::Number(channel),
+            key: Key::Number(key),
+            velocity,
+        }
+    }
+
+    fn note_off(timing: u32, key: u8) -> NoteEvent<()> {
+        NoteEvent::NoteOff {
+            timing,
+            voice_id: VoiceID::Wildcard,
+            channel: Channel::Number(0),
+            key: Key::Number(key),
+            velocity: 0.0,
+        }
+    }
+
+    fn cc(timing: u32, cc: u8, value: f32) -> NoteEvent<()> {
+        NoteEvent::MidiCC { timing, channel: 0, cc, value }
+    }
+
+    fn translated(event: NoteEvent<()>) -> Vec<Event> {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Santoor)));
+        let (mut p, _workshop) = performer(&wanted);
+        p.translate(event, 7);
+        assert!(p.events.iter().all(|e| e.time == 7));
+        p.events.iter().map(|e| e.event).collect()
+    }
+
+    #[test]
+    fn pedals_and_controllers_become_engine_events() {
+        assert_eq!(translated(cc(0, 64, 0.5)), [Event::Sustain(0.5)]);
+        assert_eq!(translated(cc(0, 66, 1.0)), [Event::Sostenuto(1.0)]);
+        assert_eq!(translated(cc(0, 67, 1.0)), [Event::UnaCorda(1.0)]);
+        assert_eq!(translated(cc(0, 120, 0.0)), [Event::Reset]);
+        assert_eq!(
+            translated(cc(0, 121, 0.0)),
+            [
+                Event::Sustain(0.0),
+                Event::Sostenuto(0.0),
+                Event::UnaCorda(0.0),
+                Event::PitchBend(0.0),
+                Event::ModWheel(0.0)
+            ]
+        );
+        assert_eq!(translated(cc(0, 123, 0.0)), [Event::AllNotesOff]);
+        assert_eq!(translated(cc(0, 1, 0.3)), [Event::ModWheel(0.3)]);
+        assert_eq!(translated(cc(0, 2, 0.3)), []);
+        assert_eq!(translated(note_on(0, 60, 0.25, 3, 1)), [Event::NoteOn { key: 60, velocity: 0.25 }]);
+        assert_eq!(translated(note_off(0, 60)), [Event::NoteOff { key: 60 }]);
+        let wildcard_off = NoteEvent::NoteOff {
+            timing: 0,
+            voice_id: VoiceID::Wildcard,
+            channel: Channel::Wildcard,
+            key: Key::Wildcard,
+            velocity: 0.0,
+        };
+        assert_eq!(translated(wildcard_off), [Event::AllNotesOff]);
+        let bend = NoteEvent::MidiPitchBend { timing: 0, channel: 0, value: 1.0 };
+        assert_eq!(translated(bend), [Event::PitchBend(1.0)]);
+    }
+
+    #[test]
+    fn pressure_reaches_the_keys_held_on_its_channel() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Clavichord)));
+        let (mut p, _workshop) = performer(&wanted);
+        let channel_pressure =
+            |channel, pressure| NoteEvent::<()>::MidiChannelPressure { timing: 0, channel, pressure };
+        p.translate(note_on(0, 60, 0.5, 1, 0), 0);
+        p.translate(note_on(0, 64, 0.5, 2, 3), 0);
+        p.translate(channel_pressure(3, 0.5), 0);
+        let poly = NoteEvent::<()>::PolyPressure {
+            timing: 0,
+            voice_id: VoiceID::Wildcard,
+            channel: Channel::Number(0),
+            key: Key::Number(60),
+            pressure: 0.75,
+        };
+        p.translate(poly, 0);
+        p.translate(note_off(0, 64), 0);
+        p.translate(channel_pressure(3, 0.0), 0);
+        let pressures: Vec<Event> =
+            p.events.iter().map(|e| e.event).filter(|e| matches!(e, Event::Pressure { .. })).collect();
+        assert_eq!(
+            pressures,
+            [Event::Pressure { key: 64, pressure: 0.5 }, Event::Pressure { key: 60, pressure: 0.75 }]
+        );
+    }
+
+    #[test]
+    fn the_pitch_wheel_is_centred_exactly() {
+        assert_eq!(pitch_wheel(8192.0 / 16383.0), 0.0);
+        assert_eq!(pitch_wheel(0.0), -1.0);
+        assert_eq!(pitch_wheel(1.0), 1.0);
+        assert_eq!(pitch_wheel(4096.0 / 16383.0), -0.5);
+    }
+
+    /// Render `seconds` of audio in blocks of `block`, returning the left channel.
+    fn run(p: &mut Performer, port: &mut Port, seconds: f64, block: usize) -> Vec<f32> {
+        let total = (seconds * FS) as usize;
+        let mut out = Vec::with_capacity(total);
+        let (mut l, mut r) = (vec![0.0; block], vec![0.0; block]);
+        while out.len() < total {
+            p.process(Controls::default(), port, &mut l, &mut r);
+            port.load(&[]);
+            out.extend_from_slice(&l);
+        }
+        out
+    }
+
+    #[test]
+    fn a_released_key_is_reported_ended_with_its_note_id_and_channel() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        let mut port = Port::new();
+        port.load(&[note_on(10, 72, 0.8, 42, 3)]);
+        let sound = run(&mut p, &mut port, 0.3, 256);
+        assert!(sound.iter().any(|s| s.abs() > 1e-3), "the key sounds");
+        assert!(port.ended.is_empty(), "nothing ends while the key is held");
+        assert_eq!(p.synth().active_keys(), 1);
+        port.load(&[note_off(0, 72)]);
+        run(&mut p, &mut port, 5.0, 256);
+        assert_eq!(port.ended.len(), 1, "{:?}", port.ended);
+        let (_, key, voice, channel) = port.ended[0];
+        assert_eq!((key, voice, channel), (72, Some(42), 3));
+        assert_eq!(p.synth().active_keys(), 0);
+    }
+
+    #[test]
+    fn more_events_than_the_list_holds_are_applied_in_pieces() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Santoor)));
+        let (mut p, _workshop) = performer(&wanted);
+        let mut port = Port::new();
+        // 2000 CC 121s (four engine events each) then a note: the list fills twice over.
+        let mut events: Vec<NoteEvent<()>> = (0..2000).map(|i| cc(i / 10, 121, 0.0)).collect();
+        events.push(note_on(300, 69, 1.0, 1, 0));
+        port.load(&events);
+        let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+        assert!(p.process(Controls::default(), &mut port, &mut l, &mut r));
+        assert!(l[..300].iter().all(|&s| s == 0.0), "silent before the note");
+        assert!(l[300..].iter().any(|&s| s != 0.0), "the note starts at its sample");
+    }
+
+    /// After a key stops, the output decays into exact silence: hosts (and
+    /// clap-validator's fuzzer) must never be handed f32 subnormals.
+    #[test]
+    fn the_tail_into_silence_has_no_subnormal_samples() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        let mut port = Port::new();
+        port.load(&[note_on(0, 72, 0.8, 1, 0), note_off(4800, 72)]);
+        let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+        let mut sounded = false;
+        for block in 0..(12.0 * FS) as usize / 512 {
+            p.process(Controls::default(), &mut port, &mut l, &mut r);
+            port.load(&[]);
+            sounded |= l.iter().any(|s| s.abs() > 1e-3);
+            for s in l.iter().chain(&r) {
+                assert!(!s.is_subnormal(), "subnormal sample {s:e} in block {block}");
+            }
+        }
+        assert!(sounded, "the key sounded");
+        assert_eq!(p.synth().active_keys(), 0, "the key ended");
+        assert!(l.iter().chain(&r).all(|&s| s == 0.0), "and the output reached exact silence");
+    }
+
+    /// A long session of random playing, pedalling, bending and automation, with
+    /// instrument and voicing changes built by the workshop, every block rendered
+    /// under the allocation checker nice-plug uses (debug builds abort on any
+    /// allocation). Also checks the output stays finite and bounded.
+    #[test]
+    fn a_long_random_session_never_allocates_on_the_audio_path() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        let mut port = Port::new();
+        let mut rng = Rng::new(0x5eed_1234_abcd_0001);
+        let (mut l, mut r) = (vec![0.0f32; 4096], vec![0.0f32; 4096]);
+        let mut events: Vec<NoteEvent<()>> = Vec::with_capacity(4096);
+        let mut controls = Controls::default();
+        let mut rendered = 0usize;
+        let mut switches = 0;
+        let mut installed = 0;
+        let mut playing = p.synth().settings().clone();
+        let session = (40.0 * FS) as usize;
+        while rendered < session {
+            // Between blocks, as a host's main thread would: automation and rebuilds.
+            if rng.below(400) == 0 {
+                let mut w = wanted.lock().unwrap();
+                w.kind = InstrumentKind::ALL[rng.below(InstrumentKind::ALL.len() as u64) as usize];
+                w.voicing.hammer_mass = 0.25 + 3.75 * rng.unit();
+                w.voicing.damping = 0.25 + 3.75 * rng.unit();
+                w.voicing.unison_detune = 4.0 * rng.unit();
+                switches += 1;
+            }
+            if rng.below(20) == 0 {
+                controls.touch_min = 0.5 * rng.unit();
+                controls.touch_max = 0.5 + 0.5 * rng.unit();
+                controls.touch_shape = 0.25 + 3.75 * rng.unit();
+                controls.polyphony = 1 + rng.below(128) as usize;
+                controls.output_gain = 10f64.powf((rng.unit() * 72.0 - 60.0) / 20.0);
+                controls.bend_range_semitones = rng.below(25) as f64;
+            }
+            let n = [0, 1, 17, 64, 128, 256, 511, 1024, 4096][rng.below(9) as usize];
+            events.clear();
+            let mut t = 0;
+            for _ in 0..rng.below(12) {
+                t = (t + rng.below(n as u64 / 4 + 1) as u32).min(n as u32);
+                let key = 21 + rng.below(88) as u8;
+                events.push(match rng.below(16) {
+                    0..=5 => note_on(t, key, rng.unit_f32().max(0.01), rng.below(1000) as i32, rng.below(16) as u8),
+                    6..=9 => note_off(t, key),
+                    10 => cc(t, 64, rng.unit_f32()),
+                    11 => cc(t, [66, 67][rng.below(2) as usize], rng.unit_f32()),
+                    12 => NoteEvent::MidiPitchBend { timing: t, channel: 0, value: rng.unit_f32() },
+                    13 => cc(t, [120, 121, 123][rng.below(3) as usize], 0.0),
+                    14 => NoteEvent::Choke {
+                        timing: t,
+                        voice_id: VoiceID::Wildcard,
+                        channel: Channel::Number(0),
+                        key: Key::Number(key),
+                    },
+                    _ => cc(t, 1, rng.unit_f32()),
+                });
+            }
+            port.load(&events);
+            port.ended.clear();
+            if rng.below(500) == 0 {
+                p.reset();
+            }
+            let (left, right) = (&mut l[..n], &mut r[..n]);
+            nice_assert_no_alloc::assert_no_alloc(|| p.process(controls, &mut port, left, right));
+            for s in l[..n].iter().chain(&r[..n]) {
+                assert!(s.is_finite() && s.abs() < 64.0, "sample {s} at {rendered}");
+            }
+            rendered += n;
+            if *p.synth().settings() != playing {
+                playing = p.synth().settings().clone();
+                installed += 1;
+            }
+        }
+        assert!(switches > 3, "the session asked for new instruments ({switches} times)");
+        assert!(installed > 1, "new instruments were installed mid-session ({installed} times)");
+        // The last switch arrives within a moment.
+        let last = wanted.lock().unwrap().clone();
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while *p.synth().settings() != last {
+            assert!(Instant::now() < deadline, "the workshop never delivered {last:?}");
+            std::thread::sleep(Duration::from_millis(5));
+            port.load(&[]);
+            nice_assert_no_alloc::assert_no_alloc(|| p.process(controls, &mut port, &mut l[..64], &mut r[..64]));
+        }
+    }
+
+    /// Proof that the checker above is live in this build: a child test process that
+    /// allocates inside it must die.
+    #[test]
+    #[cfg(debug_assertions)]
+    fn the_allocation_checker_is_live_in_debug_builds() {
+        let exe = std::env::current_exe().unwrap();
+        let out = std::process::Command::new(exe)
+            .args(["--exact", "tests::allocating_child", "--ignored", "--nocapture", "--test-threads=1"])
+            .env("STRUCK_ALLOCATING_CHILD", "1")
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "an allocation under the checker did not abort");
+    }
+
+    #[test]
+    #[ignore = "run by the_allocation_checker_is_live_in_debug_builds"]
+    fn allocating_child() {
+        if std::env::var_os("STRUCK_ALLOCATING_CHILD").is_some() {
+            let v = nice_assert_no_alloc::assert_no_alloc(|| vec![1u8; 64]);
+            std::hint::black_box(v);
+        }
+    }
+}

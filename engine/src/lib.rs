@@ -37,18 +37,14 @@
 // Checks are written `!(x > 0.0)` on purpose: a NaN must fail them.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod contact;
-pub mod damping;
-pub mod hammer;
-pub mod instrument;
+pub mod body;
+pub mod design;
+pub mod exciter;
+pub(crate) mod key;
 pub mod modal_bank;
-pub mod pluck;
 pub mod preset;
-pub mod residual;
 pub mod rng;
 pub mod string;
 pub mod struck_string;
-pub mod substeps;
 pub mod synth;
-pub mod tangent;
 pub mod tuning;

@@ -27,7 +27,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::instrument::{InstrumentKind, Voicing};
+use crate::design::{InstrumentKind, Voicing};
 use crate::synth::{Controls, InstrumentSettings};
 use crate::tuning::{FieldError, TuningSettings};
 

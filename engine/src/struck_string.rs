@@ -2,10 +2,10 @@
 //!
 //! Per audio sample the string advances by one exact modal step. While a hammer
 //! is in or near contact, the string and hammer advance instead in equal
-//! sub-steps, each with the contact force solved implicitly ([`crate::contact`]).
+//! sub-steps, each with the contact force solved implicitly ([`crate::exciter::hammer::contact`]).
 //! A string can keep tables for several sub-step counts and a strike picks one
 //! (a key picks the fewest that keep the strike within its error budget,
-//! [`crate::substeps`]); the coefficient sets for every step size are built when
+//! [`crate::exciter::hammer::substeps`]); the coefficient sets for every step size are built when
 //! the exciter is set up. A full step that turns out to end in contact is taken
 //! back ([`ModalBank::undo_free_step`]) and redone in sub-steps; sub-stepping
 //! ends once no force has acted for 100 us (micro-gaps of a chattering stiff
@@ -15,10 +15,10 @@
 //! that pass, so the bank keeps each step's state without the response to its
 //! own force (b F) and carries it into the next pass (`p b`, see [`DriveTable`]).
 //! A hammer's force is held over each step at the felt's energy-consistent mean
-//! ([`crate::contact`]; [`Hold::End`]); a tangent's prescribed acceleration is
+//! ([`crate::exciter::hammer::contact`]; [`Hold::End`]); a tangent's prescribed acceleration is
 //! interpolated linearly ([`Hold::Linear`]). The string at the contact point is
 //! the kept modes, y = y_hat + G F, plus the omitted modes' residual displacement
-//! r, a spring R in parallel with a dashpot c ([`crate::residual`]) integrated
+//! r, a spring R in parallel with a dashpot c ([`crate::string::residual`]) integrated
 //! exactly over the step:
 //!
 //!   r(h) = a r(0) + (1 - a) R F,  a = exp(-h / (c R)).
@@ -29,13 +29,13 @@
 //!
 //! Striking again continues from the string's present state.
 
-use crate::contact::{Binomial, ContactStep, Felt, Guess};
-use crate::hammer::{Hammer, HammerSpec};
+use crate::exciter::hammer::contact::{Binomial, ContactStep, Felt, Guess};
+use crate::exciter::hammer::{Hammer, HammerSpec};
+use crate::exciter::pluck::PluckSpec;
+use crate::exciter::tangent::TangentSpec;
 use crate::modal_bank::{DriveTable, Hold, LANES, ModalBank, StepTable};
-use crate::pluck::PluckSpec;
-use crate::residual;
 use crate::string::StringModes;
-use crate::tangent::TangentSpec;
+use crate::string::residual;
 
 /// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
 pub const DEFAULT_SUBSTEPS: usize = 8;
@@ -263,7 +263,7 @@ impl StruckString {
         let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
         let idle_hammer = HammerSpec {
             mass_kg: 1.0,
-            law: crate::contact::ContactLaw { stiffness: 1.0, exponent: 1.0 },
+            law: crate::exciter::hammer::contact::ContactLaw { stiffness: 1.0, exponent: 1.0 },
             speed_m_s: 0.0,
             position: 0.5,
         };

@@ -7,7 +7,7 @@ use std::cell::Cell;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
-use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::design::{InstrumentKind, Voicing};
 use struck_engine::rng::Rng;
 use struck_engine::synth::{Controls, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop};
 

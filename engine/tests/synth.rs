@@ -1,6 +1,6 @@
 //! The real-time synth: keys, pedals, stealing, block-size independence, rebuilds.
 
-use struck_engine::instrument::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
+use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
 use struck_engine::synth::{
     Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop, default_settings,
 };
@@ -430,7 +430,7 @@ fn clavichord(voicing: Voicing) -> Synth {
 fn a_clavichord_press_raises_the_pitch_as_the_stretch_says() {
     // D2, the seed's string; one string's pitch (no unison spread) measured over 2 s.
     let key = 38;
-    let f_key = struck_engine::instrument::key_frequency_hz(key);
+    let f_key = struck_engine::design::key_frequency_hz(key);
     let built_m = 2.0e-3;
     // At rest the strings sit flat by the built press's rise (tuned with the key down).
     let rest_hz = f_key / 2f64.powf(clavichord_pitch_rise_cents(key, built_m) / 1200.0);
@@ -448,7 +448,7 @@ fn a_clavichord_press_raises_the_pitch_as_the_stretch_says() {
 #[test]
 fn bebung_bends_a_held_clavichord_note_smoothly() {
     let key = 38;
-    let f_key = struck_engine::instrument::key_frequency_hz(key);
+    let f_key = struck_engine::design::key_frequency_hz(key);
     let voicing = Voicing { unison_detune: 0.0, ..Voicing::default() };
     let events = [(0.0, Event::NoteOn { key, velocity: 0.8 }), (1.0, Event::Pressure { key, pressure: 1.0 })];
     let mut synth = clavichord(voicing);

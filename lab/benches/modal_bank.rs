@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use struck_engine::contact::{ContactLaw, Felt, Guess};
+use struck_engine::exciter::hammer::contact::{ContactLaw, Felt, Guess};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 use struck_lab::perf::{contact_string, synthetic_bank};
 
@@ -116,7 +116,7 @@ fn contact_solve(c: &mut Criterion) {
 fn instruments(c: &mut Criterion) {
     let mut group = c.benchmark_group("instrument, chords every 0.2 s with the pedal down");
     group.sample_size(10);
-    for kind in struck_engine::instrument::InstrumentKind::ALL {
+    for kind in struck_engine::design::InstrumentKind::ALL {
         // One second of audio per iteration; the figure to read is seconds per second of audio.
         group.throughput(Throughput::Elements(48_000));
         group.bench_function(kind.name(), |b| b.iter(|| struck_lab::perf::synth_throughput(kind, 1.0)));

@@ -7,10 +7,10 @@ pub mod workload;
 use std::f64::consts::PI;
 use std::time::{Duration, Instant};
 
-use struck_engine::contact::ContactLaw;
-use struck_engine::damping::Damping;
-use struck_engine::hammer::HammerSpec;
+use struck_engine::exciter::hammer::HammerSpec;
+use struck_engine::exciter::hammer::contact::ContactLaw;
 use struck_engine::modal_bank::{LANES, ModalBank, StepTable};
+use struck_engine::string::damping::Damping;
 use struck_engine::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
@@ -152,7 +152,7 @@ pub struct SynthThroughput {
 /// Play `kind` at 48 kHz for `audio_s` seconds in 512-sample blocks: a four-note
 /// chord every 20 blocks (about 0.2 s) wandering over the keyboard, sustain pedal
 /// down throughout, so keys pile up to the polyphony cap of 128.
-pub fn synth_throughput(kind: struck_engine::instrument::InstrumentKind, audio_s: f64) -> SynthThroughput {
+pub fn synth_throughput(kind: struck_engine::design::InstrumentKind, audio_s: f64) -> SynthThroughput {
     use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
     const BLOCK: usize = 512;
     let start = Instant::now();

@@ -5,12 +5,12 @@
 
 use std::f64::consts::PI;
 
-use struck_engine::contact::ContactLaw;
-use struck_engine::damping::Damping;
-use struck_engine::hammer::HammerSpec;
+use struck_engine::exciter::hammer::HammerSpec;
+use struck_engine::exciter::hammer::contact::ContactLaw;
+use struck_engine::exciter::tangent::TangentSpec;
+use struck_engine::string::damping::Damping;
 use struck_engine::string::{Mass, Stiffness, StringModes, StringSpec, Tuning};
 use struck_engine::struck_string::{ContactObserver, DEFAULT_SUBSTEPS, StruckString};
-use struck_engine::tangent::TangentSpec;
 use struck_lab::analysis::spectrum::{partial_levels_db, track_partial};
 use struck_lab::strike::run::{CONTACT_MERGE_GAP_S, merge_contacts};
 use struck_lab::strike::{self, ExciterSpec};

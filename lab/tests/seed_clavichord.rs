@@ -31,12 +31,12 @@
 //! three times higher or the tangent three times slower, neither of which its
 //! text describes, so the figures are reported, not tuned toward it.
 
-use struck_engine::damping::{Damping, PhysicalLoss};
-use struck_engine::instrument::{InstrumentKind, Voicing, design};
-use struck_engine::pluck::PluckSpec;
+use struck_engine::design::{InstrumentKind, Voicing, key_design};
+use struck_engine::exciter::pluck::PluckSpec;
+use struck_engine::exciter::tangent::TangentSpec;
+use struck_engine::string::damping::{Damping, PhysicalLoss};
 use struck_engine::string::{StringModes, StringSpec};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
-use struck_engine::tangent::TangentSpec;
 use struck_lab::analysis::spectrum::partial_levels_db;
 
 const SAMPLE_RATE_HZ: f64 = 48_000.0;
@@ -49,7 +49,7 @@ const D2: u8 = 38;
 
 /// The clavichord's D2 string, with the instrument's own damping.
 fn clavichord_d2() -> StringSpec {
-    let key = design(InstrumentKind::Clavichord, &Voicing::default(), D2, 20_000.0).expect("the clavichord has D2");
+    let key = key_design(InstrumentKind::Clavichord, &Voicing::default(), D2, 20_000.0).expect("the clavichord has D2");
     key.strings[0].clone()
 }
 

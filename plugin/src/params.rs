@@ -10,7 +10,7 @@
 use std::sync::RwLock;
 
 use nice_plug::prelude::*;
-use struck_engine::instrument::{InstrumentKind, Voicing};
+use struck_engine::design::{InstrumentKind, Voicing};
 use struck_engine::synth::{Controls, InstrumentSettings};
 use struck_engine::tuning::{A4_RANGE_HZ, ScalaScale, Temperament, TuningSettings, pitch_class_name};
 

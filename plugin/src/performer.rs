@@ -157,7 +157,7 @@ mod tests {
     use std::time::{Duration, Instant};
 
     use nice_plug::midi::{Channel, Key, VoiceID};
-    use struck_engine::instrument::InstrumentKind;
+    use struck_engine::design::InstrumentKind;
     use struck_engine::rng::Rng;
     use struck_engine::synth::{Instrument, InstrumentSettings, Workshop};
 

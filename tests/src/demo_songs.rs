@@ -572,7 +572,7 @@ fn harpsichord_prelude() -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use struck_engine::instrument::InstrumentKind;
+    use struck_engine::design::InstrumentKind;
 
     /// Each song is 20 to 40 s long and every note is on its instrument's keys.
     #[test]

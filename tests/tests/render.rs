@@ -330,7 +330,7 @@ fn aftertouch_in_the_file_bends_a_clavichord_note() {
     let preset = scratch.path("clear.json");
     // One string's pitch: no unison spread.
     std::fs::write(&preset, r#"{"instrument": "clavichord", "voicing": {"unison_detune": 0}}"#).unwrap();
-    let rise = |stretch_mm: f64| struck_engine::instrument::clavichord_pitch_rise_cents(38, stretch_mm * 1e-3);
+    let rise = |stretch_mm: f64| struck_engine::design::clavichord_pitch_rise_cents(38, stretch_mm * 1e-3);
     let expected = rise(2.5) - rise(2.0);
     for song in ["d2-channel-pressure.mid", "d2-poly-pressure.mid"] {
         let wav = scratch.wav(&midi(song), &["--tail-s", "0", "--preset", path_str(&preset)]);

@@ -12,7 +12,6 @@
 //! depend only on the events' times, so any host block size gives the same samples.
 
 pub mod event;
-mod key;
 pub mod scope;
 mod workshop;
 
@@ -22,11 +21,11 @@ pub use event::{Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
-use crate::instrument::{self, InstrumentKind, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use crate::design::{self, InstrumentKind, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use crate::key::Key;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
-use key::Key;
 use scope::ScopeWriter;
 
 /// Samples between control updates.
@@ -139,7 +138,7 @@ impl Instrument {
         let designs: Vec<KeyDesign> = settings
             .kind
             .key_range()
-            .filter_map(|k| instrument::design(settings.kind, &settings.voicing, k, max_frequency_hz))
+            .filter_map(|k| design::key_design(settings.kind, &settings.voicing, k, max_frequency_hz))
             .collect();
         let frequencies_hz = settings.tuning.frequencies_hz(&|k| {
             let design = designs.iter().find(|d| d.midi_key == k)?;

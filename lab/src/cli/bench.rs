@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
-use struck_engine::instrument::InstrumentKind;
+use struck_engine::design::InstrumentKind;
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 
 use crate::cli::Failure;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use crate::strike::{self, StrikeCase, seed};
 use clap::{Args, Subcommand};
-use struck_engine::instrument::InstrumentKind;
+use struck_engine::design::InstrumentKind;
 
 use crate::cli::Failure;
 use crate::figures::hammer::{self, GridOptions};

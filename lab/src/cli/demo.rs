@@ -8,7 +8,7 @@ use std::time::Instant;
 use crate::strike::seed;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use struck_engine::instrument::InstrumentKind;
+use struck_engine::design::InstrumentKind;
 
 use crate::cli::Failure;
 use crate::cli::animate::{self, FilmOptions};

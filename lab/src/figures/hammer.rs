@@ -79,7 +79,7 @@ fn draw(map: &Heatmap, dir: &Path, name: &str) -> anyhow::Result<Drawn> {
     Ok(drawn)
 }
 
-fn hammer_of(case: &StrikeCase) -> anyhow::Result<struck_engine::hammer::HammerSpec> {
+fn hammer_of(case: &StrikeCase) -> anyhow::Result<struck_engine::exciter::hammer::HammerSpec> {
     match case.exciter {
         ExciterSpec::Hammer(h) => Ok(h),
         _ => anyhow::bail!("a hammer chart needs a hammer"),

@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use crate::analysis::spectrum::{hann, magnitude_spectrum};
 use crate::strike::seed::{self, Stringing};
 use crate::strike::{self, LabRun, StrikeCase};
-use struck_engine::instrument::{InstrumentKind, clavichord_pitch_rise_cents};
-use struck_engine::tangent::TangentSpec;
+use struck_engine::design::{InstrumentKind, clavichord_pitch_rise_cents};
+use struck_engine::exciter::tangent::TangentSpec;
 
 use crate::plot::{Colour, LinePlot, MarkerShape, Scale, Series};
 

@@ -14,7 +14,7 @@
 
 use std::time::Instant;
 
-use struck_engine::instrument::InstrumentKind;
+use struck_engine::design::InstrumentKind;
 use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
 
 pub const SAMPLE_RATE_HZ: f64 = 48_000.0;

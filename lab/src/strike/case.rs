@@ -8,12 +8,12 @@
 
 use serde_json::{Map, Value};
 
-use struck_engine::contact::ContactLaw;
-use struck_engine::damping::{Damping, PhysicalLoss};
-use struck_engine::hammer::HammerSpec;
-use struck_engine::pluck::PluckSpec;
+use struck_engine::exciter::hammer::HammerSpec;
+use struck_engine::exciter::hammer::contact::ContactLaw;
+use struck_engine::exciter::pluck::PluckSpec;
+use struck_engine::exciter::tangent::TangentSpec;
+use struck_engine::string::damping::{Damping, PhysicalLoss};
 use struck_engine::string::{MAX_MODES, Mass, Stiffness, StringError, StringModes, StringSpec, Tuning};
-use struck_engine::tangent::TangentSpec;
 
 /// Lowest and highest sample rates the lab accepts, Hz.
 pub const SAMPLE_RATE_RANGE_HZ: (f64, f64) = (8_000.0, 1_536_000.0);

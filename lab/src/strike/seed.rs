@@ -8,17 +8,17 @@
 //! A piano course (one, two or three strings in unison) is simulated as the seed
 //! does: one string carrying the course's total tension and mass, struck by the
 //! whole hammer. Its strings are the piano instrument's (the Broadwood's C
-//! strings, [`struck_engine::instrument`]), tuned exactly to equal temperament at
+//! strings, [`struck_engine::design`]), tuned exactly to equal temperament at
 //! A4 = 440 Hz with a uniform Q of 2000, as in the seed's simulations.
 
 use crate::strike::case::{ExciterSpec, StrikeCase};
-use struck_engine::contact::ContactLaw;
-use struck_engine::damping::{Damping, PhysicalLoss};
-use struck_engine::hammer::HammerSpec;
-use struck_engine::instrument::{ExciterDesign, InstrumentKind, KeyDesign, Voicing, design, key_frequency_hz};
-use struck_engine::pluck::PluckSpec;
+use struck_engine::design::{ExciterDesign, InstrumentKind, KeyDesign, Voicing, key_design, key_frequency_hz};
+use struck_engine::exciter::hammer::HammerSpec;
+use struck_engine::exciter::hammer::contact::ContactLaw;
+use struck_engine::exciter::pluck::PluckSpec;
+use struck_engine::exciter::tangent::TangentSpec;
+use struck_engine::string::damping::{Damping, PhysicalLoss};
 use struck_engine::string::{Mass, Stiffness, StringSpec, Tuning};
-use struck_engine::tangent::TangentSpec;
 
 /// Mode cut-off of every seed case, Hz (the instruments' own).
 pub const MAX_FREQUENCY_HZ: f64 = 20_000.0;
@@ -131,7 +131,7 @@ pub fn course_string(key: &KeyDesign, damping: Damping, max_frequency_hz: f64) -
 }
 
 fn piano_key(midi_key: u8) -> KeyDesign {
-    design(InstrumentKind::Piano, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)
+    key_design(InstrumentKind::Piano, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)
         .expect("the piano has every C from C1 to C8")
 }
 
@@ -186,7 +186,7 @@ pub fn key_case(
     sample_rate_hz: f64,
     duration_s: f64,
 ) -> Option<StrikeCase> {
-    let key = design(kind, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)?;
+    let key = key_design(kind, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)?;
     let own = key.strings.first()?.build().ok()?;
     let q = own.modes.iter().map(|m| m.q).collect();
     let string = course_string(&key, Damping::PerModeQ(q), MAX_FREQUENCY_HZ)?;
@@ -208,7 +208,7 @@ pub fn key_case(
 /// The clavichord's D2 string with its own damping (the leak past the tangent
 /// included), one string of the pair.
 pub fn clavichord_string() -> StringSpec {
-    design(InstrumentKind::Clavichord, &Voicing::default(), CLAVICHORD_KEY, MAX_FREQUENCY_HZ)
+    key_design(InstrumentKind::Clavichord, &Voicing::default(), CLAVICHORD_KEY, MAX_FREQUENCY_HZ)
         .and_then(|k| k.strings.first().cloned())
         .expect("the clavichord has D2")
 }
@@ -289,7 +289,7 @@ pub struct Stringing {
 pub fn stringing(kind: InstrumentKind) -> Vec<Stringing> {
     kind.key_range()
         .filter_map(|midi_key| {
-            let key = design(kind, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)?;
+            let key = key_design(kind, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)?;
             let built = key.strings.first()?.build().ok()?;
             let strings = key.strings.len();
             Some(Stringing {

@@ -47,8 +47,8 @@ use serde::Serialize;
 use crate::analysis::spectrum::spectral_centroid_padded_hz;
 use crate::strike::case::{ExciterSpec, MAX_EXPONENT, StrikeCase};
 use crate::strike::run::{CONTACT_MERGE_GAP_S, ContactTracker, merge_contacts};
-use struck_engine::contact::ContactLaw;
-use struck_engine::hammer::HammerSpec;
+use struck_engine::exciter::hammer::HammerSpec;
+use struck_engine::exciter::hammer::contact::ContactLaw;
 use struck_engine::string::{StringError, StringModes};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
@@ -579,8 +579,8 @@ pub fn equivalent_stiffness(case: &StrikeCase, reference_exponent: f64) -> Resul
 mod tests {
     use super::*;
     use crate::strike::{parse_case, run};
-    use struck_engine::damping::Damping;
-    use struck_engine::pluck::PluckSpec;
+    use struck_engine::exciter::pluck::PluckSpec;
+    use struck_engine::string::damping::Damping;
     use struck_engine::string::{Mass, Stiffness, StringSpec, Tuning};
 
     /// tests/data/reference/S1.json: santoor string, 1 g mallet, K = 1e6 N/m linear.

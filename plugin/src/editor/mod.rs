@@ -253,7 +253,7 @@ mod tests {
     use std::sync::atomic::{AtomicUsize, Ordering};
 
     use nice_plug::context::gui::GuiContextInner;
-    use struck_engine::instrument::InstrumentKind;
+    use struck_engine::design::InstrumentKind;
     use struck_engine::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
 
     use super::*;

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Ui, Vec2, pos2};
 use realfft::num_complex::Complex;
 use realfft::{RealFftPlanner, RealToComplex};
-use struck_engine::instrument::{InstrumentKind, TouchRange};
+use struck_engine::design::{InstrumentKind, TouchRange};
 use struck_engine::synth::scope::{CONTACT_SAMPLES, SHAPE_POINTS};
 use struck_engine::synth::{Controls, Scope, ScopeFrame};
 

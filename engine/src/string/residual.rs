@@ -103,7 +103,7 @@ pub fn omitted_tangent_shares_kg(string: &StringModes) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::damping::Damping;
+    use crate::string::damping::Damping;
     use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
     fn string(b: f64, max_hz: f64) -> StringModes {

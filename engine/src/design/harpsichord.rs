@@ -34,7 +34,7 @@ use super::common::{
     wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
-use crate::damping::Damping;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 pub(super) const KEYS: RangeInclusive<u8> = 36..=86;

@@ -22,8 +22,8 @@ use super::common::{
     unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 pub(super) const KEYS: RangeInclusive<u8> = 52..=89;

@@ -24,7 +24,7 @@
 //!
 //! Allocates: [`SubstepPlan::measure`] (off the audio thread); the rest no.
 
-use crate::hammer::HammerSpec;
+use crate::exciter::hammer::HammerSpec;
 use crate::string::StringModes;
 use crate::struck_string::StruckString;
 
@@ -132,13 +132,13 @@ pub fn strike_difference(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::instrument::{self, ExciterDesign, InstrumentKind, Voicing};
+    use crate::design::{self, ExciterDesign, InstrumentKind, Voicing};
 
     const FS: f64 = 48_000.0;
 
     /// A piano key's last string and its share of the hammer at `speed_m_s`.
     fn piano_key(key: u8, speed_m_s: f64) -> (StringModes, HammerSpec) {
-        let d = instrument::design(InstrumentKind::Piano, &Voicing::default(), key, 20_000.0).unwrap();
+        let d = design::key_design(InstrumentKind::Piano, &Voicing::default(), key, 20_000.0).unwrap();
         let string = d.strings[d.struck.end - 1].build().unwrap();
         let ExciterDesign::Hammer { mass_kg, law, position } = d.exciter else { panic!("a piano key has a hammer") };
         (string, HammerSpec::one_of(d.struck.len(), mass_kg, law, speed_m_s, position))

@@ -695,7 +695,7 @@ fn undo_step(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::damping::Damping;
+    use crate::string::damping::Damping;
     use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
     /// A stiff treble string with modes up to 20 kHz.

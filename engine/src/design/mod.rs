@@ -13,7 +13,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use crate::contact::ContactLaw;
+use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::StringSpec;
 
 mod cimbalom;
@@ -229,7 +229,7 @@ pub struct KeyDesign {
 /// The design of `midi_key` on `kind` with `voicing`, in equal temperament at
 /// A4 = 440 Hz, for modes up to `max_frequency_hz`; None when the instrument has
 /// no such key, or when the key plays another key's strings ([`KeyDesign::shared`]).
-pub fn design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> Option<KeyDesign> {
+pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> Option<KeyDesign> {
     if !kind.key_range().contains(&midi_key) {
         return None;
     }

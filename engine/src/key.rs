@@ -8,17 +8,17 @@
 
 use std::ops::Range;
 
-use crate::contact::ContactLaw;
-use crate::hammer::HammerSpec;
-use crate::instrument::{DamperDesign, ExciterDesign, KeyDesign};
+use crate::design::{DamperDesign, ExciterDesign, KeyDesign};
+use crate::exciter::hammer::HammerSpec;
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::exciter::hammer::substeps::SubstepPlan;
+use crate::exciter::pluck::PluckSpec;
+use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{LANES, lane_sum};
-use crate::pluck::PluckSpec;
 use crate::string::StringError;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
-use crate::substeps::SubstepPlan;
-use crate::tangent::{self, TangentSpec};
 
-use super::CONTROL_BLOCK;
+use crate::synth::CONTROL_BLOCK;
 
 /// Time constant of a tangent falling back from the strings when the key comes up, s.
 const TANGENT_LIFT_S: f64 = 0.002;
@@ -38,7 +38,7 @@ const CULL_BELOW_LOUDEST: f64 = 1e-6;
 /// there adds nothing a listener or the key's switch-off could notice).
 const CULL_FLOOR: f64 = 1e-2;
 /// Most notes one course can have (they are kept as bits).
-pub(super) const MAX_NOTES: usize = 32;
+pub(crate) const MAX_NOTES: usize = 32;
 /// Time constant smoothing the finger's pressure on a tangent (aftertouch), s: a
 /// player's Bebung is a few hertz at most, MIDI pressure comes in steps.
 const PRESSURE_SMOOTHING_S: f64 = 0.015;
@@ -58,7 +58,7 @@ struct Note {
     substeps: Option<SubstepPlan>,
 }
 
-pub(super) struct Key {
+pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
     pub midi_key: u8,
     pub strings: Vec<StruckString>,

@@ -116,7 +116,7 @@ mod tests {
     use super::super::common::DECAY_60_DB;
     use super::super::scale::ScaleRow;
     use super::*;
-    use crate::instrument::ExciterDesign;
+    use crate::design::ExciterDesign;
     use crate::string::StringModes;
 
     fn row(midi_key: u8) -> &'static ScaleRow {

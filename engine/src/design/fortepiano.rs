@@ -125,8 +125,8 @@ mod tests {
     use super::super::common::DECAY_60_DB;
     use super::super::{InstrumentKind, piano};
     use super::*;
-    use crate::contact::ContactLaw;
-    use crate::instrument::ExciterDesign;
+    use crate::design::ExciterDesign;
+    use crate::exciter::hammer::contact::ContactLaw;
 
     /// The C7 felt (Chaigne & Askenfelt 1994).
     const C7_FELT: ContactLaw = ContactLaw { stiffness: 1.0e12, exponent: 3.0 };

@@ -7,13 +7,16 @@
 //! back any number of times (bounces come out of the physics).
 //!
 //! Over a (sub)step of length h the force is held at one value F, the felt's
-//! energy-consistent mean over the step ([`crate::contact`]), and the hammer
+//! energy-consistent mean over the step ([`crate::exciter::hammer::contact`]), and the hammer
 //! moves exactly under it:
 //!   eta(h) = eta + v h - h^2 F / (2 M),   v(h) = v - h F / M,
 //! so it yields to the step's own force with compliance h^2 / (2 M), and the
 //! impulse it receives is exactly the sum of F h over the steps.
 
-use crate::contact::ContactLaw;
+pub mod contact;
+pub mod substeps;
+
+pub use contact::ContactLaw;
 
 /// A hammer or mallet and how it is thrown.
 #[derive(Clone, Copy, Debug, PartialEq)]

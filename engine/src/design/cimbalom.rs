@@ -48,8 +48,8 @@ use super::common::{
     with_losses, wound_mass_per_length_kg_m,
 };
 use super::{DamperDesign, ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
@@ -223,7 +223,7 @@ mod tests {
 
     use super::super::common::DECAY_60_DB;
     use super::*;
-    use crate::hammer::{Hammer, HammerSpec};
+    use crate::exciter::hammer::{Hammer, HammerSpec};
     use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
     #[test]

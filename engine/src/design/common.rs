@@ -2,7 +2,7 @@
 //! the voicing's scale factors, unison detuning, string losses, dampers and pan.
 //!
 //! String losses are set per mode (`Damping::PerModeQ`) from the physical model of
-//! [`crate::damping`] (air, internal friction, the bridge; for the clavichord also
+//! [`crate::string::damping`] (air, internal friction, the bridge; for the clavichord also
 //! the leak past the tangent), with the voicing's `damping` factor multiplying
 //! every mode's total loss 1/Q. `Damping::Physical` could only scale the internal
 //! and bridge terms, not air drag, so the factor would not mean what it says.
@@ -11,8 +11,8 @@ use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
 use super::{DamperDesign, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::{Damping, LossModel, PhysicalLoss};
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::string::damping::{Damping, LossModel, PhysicalLoss};
 use crate::string::{Mass, StringSpec};
 
 /// Compression at which a voiced exponent keeps the felt's force unchanged, m
@@ -333,8 +333,8 @@ pub(super) fn wound_mass_per_length_kg_m(core_m: f64, wrap_wire_m: f64, wrap_den
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::instrument::{
-        ExciterDesign, InstrumentKind, KeyDesign, cimbalom, clavichord, design, dulcimer, fortepiano, harpsichord,
+    use crate::design::{
+        ExciterDesign, InstrumentKind, KeyDesign, cimbalom, clavichord, dulcimer, fortepiano, harpsichord, key_design,
         piano, santoor,
     };
     use crate::string::Tuning;
@@ -368,7 +368,7 @@ mod tests {
     fn course(kind: InstrumentKind, key: u8) -> (KeyDesign, Vec<u8>) {
         let d = kind
             .key_range()
-            .filter_map(|k| design(kind, &Voicing::default(), k, 20_000.0))
+            .filter_map(|k| key_design(kind, &Voicing::default(), k, 20_000.0))
             .find(|d| d.midi_key == key || d.shared.iter().any(|s| s.midi_key == key))
             .unwrap_or_else(|| panic!("{kind} key {key}: on no course"));
         let keys = std::iter::once(d.midi_key).chain(d.shared.iter().map(|s| s.midi_key)).collect();
@@ -384,7 +384,7 @@ mod tests {
             for key in kind.key_range() {
                 for max_frequency_hz in [9_900.0, 20_000.0] {
                     // None: the key plays another key's course (counted there).
-                    let Some(d) = design(kind, &voicing, key, max_frequency_hz) else { continue };
+                    let Some(d) = key_design(kind, &voicing, key, max_frequency_hz) else { continue };
                     if max_frequency_hz == 20_000.0 {
                         for k in std::iter::once(key).chain(d.shared.iter().map(|s| s.midi_key)) {
                             played[k as usize] += 1;
@@ -401,7 +401,7 @@ mod tests {
                         // A clavichord is tuned with its keys down: the press's stretch brings it up to pitch.
                         let pressed = match d.exciter {
                             ExciterDesign::Tangent { displacement_m, stretch_per_m2 } => {
-                                crate::tangent::stretched_pitch_ratio(stretch_per_m2, displacement_m)
+                                crate::exciter::tangent::stretched_pitch_ratio(stretch_per_m2, displacement_m)
                             }
                             _ => 1.0,
                         };
@@ -455,8 +455,8 @@ mod tests {
     fn none_outside_the_key_range() {
         for kind in InstrumentKind::ALL {
             let range = kind.key_range();
-            assert!(design(kind, &Voicing::default(), range.start() - 1, 20_000.0).is_none());
-            assert!(design(kind, &Voicing::default(), range.end() + 1, 20_000.0).is_none());
+            assert!(key_design(kind, &Voicing::default(), range.start() - 1, 20_000.0).is_none());
+            assert!(key_design(kind, &Voicing::default(), range.end() + 1, 20_000.0).is_none());
         }
     }
 
@@ -466,7 +466,7 @@ mod tests {
             // Over the courses (keys that play another key's course have no design).
             let pans: Vec<f64> = kind
                 .key_range()
-                .filter_map(|k| design(kind, &Voicing::default(), k, 20_000.0))
+                .filter_map(|k| key_design(kind, &Voicing::default(), k, 20_000.0))
                 .map(|d| d.pan)
                 .collect();
             assert!((pans[0] + 0.6).abs() < 1e-12 && (pans[pans.len() - 1] - 0.6).abs() < 1e-12);
@@ -533,11 +533,11 @@ mod tests {
             // The middle key, or the first course above it (a key may play another's course).
             let middle = (kind.key_range().start() + kind.key_range().end()) / 2;
             let key = (middle..=*kind.key_range().end())
-                .find(|&k| design(kind, &Voicing::default(), k, 20_000.0).is_some())
+                .find(|&k| key_design(kind, &Voicing::default(), k, 20_000.0).is_some())
                 .unwrap();
-            let plain = design(kind, &Voicing::default(), key, 20_000.0).unwrap();
+            let plain = key_design(kind, &Voicing::default(), key, 20_000.0).unwrap();
             let voicing = Voicing { damping: 2.0, ..Voicing::default() };
-            let damped = design(kind, &voicing, key, 20_000.0).unwrap();
+            let damped = key_design(kind, &voicing, key, 20_000.0).unwrap();
             let a = plain.strings[0].build().unwrap();
             let b = damped.strings[0].build().unwrap();
             assert_eq!(a.modes.len(), b.modes.len());
@@ -552,7 +552,7 @@ mod tests {
         for kind in [InstrumentKind::Piano, InstrumentKind::Santoor, InstrumentKind::Clavichord] {
             let key = *kind.key_range().end() - 2;
             let pitch = |voicing: &Voicing| -> Vec<f64> {
-                design(kind, voicing, key, 20_000.0)
+                key_design(kind, voicing, key, 20_000.0)
                     .unwrap()
                     .strings
                     .iter()

@@ -48,8 +48,8 @@ use super::common::{
     unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses, wound_mass_per_length_kg_m,
 };
 use super::{ExciterDesign, KeyDesign, SharedKey, TouchRange, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 pub(super) const KEYS: RangeInclusive<u8> = 50..=86;
@@ -297,7 +297,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::instrument::InstrumentKind;
+    use crate::design::InstrumentKind;
     use crate::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
 
     fn build(spec: &StringSpec) -> crate::string::StringModes {

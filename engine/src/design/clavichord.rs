@@ -21,7 +21,7 @@
 //! speaking length. Fletcher & Beebe give up to about 1.3 m for the Way & Ducornet
 //! copy; 1.2 m is taken for every key, so L1 = 1.2 m - L2 runs from 0.38 m at C2 to
 //! 1.09 m at E6. Pressing the tangent in by W stretches both lengths (see
-//! [`crate::tangent`]): 4.6 cents at 2 mm on D2, the seed's "about 5 cents near
+//! [`crate::exciter::tangent`]): 4.6 cents at 2 mm on D2, the seed's "about 5 cents near
 //! 2 mm" (its Fig. 29). As the working stress rises, from 117 MPa at D2 to
 //! 580 MPa at c', the rise at 2 mm falls to 0.85 cents there, then climbs again to
 //! 2.2 cents at E6 as the speaking length shortens.
@@ -43,9 +43,9 @@ use super::common::{
     pan, unison_cents, wire_mass_per_length_kg_m, with_losses,
 };
 use super::{ExciterDesign, KeyDesign, SharedKey, TouchRange, Voicing, key_frequency_hz};
-use crate::damping::Damping;
+use crate::exciter::tangent;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
-use crate::tangent;
 
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 

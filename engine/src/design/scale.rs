@@ -14,8 +14,8 @@ use std::fmt;
 
 use super::common::{Losses, detuned_hz, struck_peak_n, unison_cents, voiced_law, voiced_position, with_losses};
 use super::{ExciterDesign, Voicing, key_frequency_hz};
-use crate::contact::ContactLaw;
-use crate::damping::Damping;
+use crate::exciter::hammer::contact::ContactLaw;
+use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
 /// One key of a scale, in SI units (see the file's header for the columns).

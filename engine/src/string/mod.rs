@@ -9,14 +9,17 @@
 //!
 //! (Fletcher 1964; Euphonics 5.4.3). When a string is tuned by its pitch, it is
 //! the first partial f_1 = f0 sqrt(1 + B) that sits on the target. Each mode
-//! carries its own quality factor Q_n (see [`crate::damping`]).
+//! carries its own quality factor Q_n (see [`crate::string::damping`]).
 //!
 //! Everything here is computed once, when a note is set up; nothing here runs
 //! on the audio thread.
 
+pub mod damping;
+pub mod residual;
+
 use std::f64::consts::PI;
 
-use crate::damping::{Damping, LossModel};
+use crate::string::damping::{Damping, LossModel};
 
 /// How the string is tuned: by the frequency of its first partial or by its tension.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,7 +61,7 @@ pub struct StringSpec {
     pub stiffness: Stiffness,
     pub damping: Damping,
     /// Modes above this frequency are left out (their static share is kept; see
-    /// [`crate::residual`]).
+    /// [`crate::string::residual`]).
     pub max_frequency_hz: f64,
     /// Outer diameter, when known; only air damping uses it.
     pub outer_diameter_m: Option<f64>,

@@ -8,6 +8,10 @@
 
 use std::f64::consts::PI;
 
+use crate::exciter::{Tick, drive_table};
+use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
+use crate::string::StringModes;
+
 /// How the string is plucked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PluckSpec {
@@ -22,6 +26,68 @@ impl PluckSpec {
     pub fn modal_displacement_m(&self, mode_number: usize) -> f64 {
         let (n, beta) = (mode_number as f64, self.position);
         2.0 * self.displacement_m * (n * PI * beta).sin() / (n * n * PI * PI * beta * (1.0 - beta))
+    }
+}
+
+/// A plucking point's tables, and whether the string was just let go there.
+pub struct PluckRig {
+    position: f64,
+    /// Observes the string at the plucking point (it drives nothing: a pluck is an
+    /// initial displacement).
+    drive: DriveTable,
+    plucked: bool,
+}
+
+impl PluckRig {
+    /// The tables for plucking `string` (stepped by `bank`) at `position`. Allocates.
+    pub fn new(string: &StringModes, bank: &ModalBank, audio: &StepTable, position: f64) -> Self {
+        let shape: Vec<f64> = string.modes.iter().map(|m| string.shape_at(m, position)).collect();
+        let drive = drive_table(bank, audio, Hold::Linear, |_| 0.0, |i| shape[i]);
+        Self { position, drive, plucked: false }
+    }
+
+    /// The plucking point, as a fraction of the length from the bridge.
+    pub fn position(&self) -> f64 {
+        self.position
+    }
+
+    pub fn in_play(&self) -> bool {
+        self.plucked
+    }
+
+    /// Pull the string aside into a triangle and let go: every mode of `string`
+    /// takes its share (added to its present state). Allocates: no.
+    pub fn pluck(&mut self, bank: &mut ModalBank, string: &StringModes, spec: PluckSpec) {
+        debug_assert_eq!(spec.position, self.position);
+        for (i, mode) in string.modes.iter().enumerate() {
+            bank.add_displacement(i, spec.modal_displacement_m(mode.number));
+        }
+        self.plucked = true;
+    }
+
+    /// The plectrum has gone: nothing more to observe.
+    pub fn release(&mut self) {
+        self.plucked = false;
+    }
+
+    /// The present state without stepping, while just plucked.
+    pub fn current(&self, bank: &ModalBank) -> Option<Tick> {
+        self.plucked.then(|| Tick {
+            contact_force_n: 0.0,
+            bridge_force_n: bank.bridge_force_n(),
+            exciter_position_m: None,
+            string_position_m: bank.observe(&self.drive),
+        })
+    }
+
+    /// Advance one sample watching the plucking point; None (nothing done) when
+    /// not just plucked. Allocates: no.
+    pub fn tick(&mut self, bank: &mut ModalBank, audio: &StepTable) -> Option<Tick> {
+        if !self.plucked {
+            return None;
+        }
+        let (y, bridge) = bank.step_driven(audio, &self.drive, 0.0);
+        Some(Tick { contact_force_n: 0.0, bridge_force_n: bridge, exciter_position_m: None, string_position_m: y })
     }
 }
 

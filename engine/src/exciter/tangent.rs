@@ -26,6 +26,10 @@
 
 use std::f64::consts::PI;
 
+use crate::exciter::{Tick, drive_table};
+use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
+use crate::string::{StringModes, residual};
+
 /// How the tangent is played.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TangentSpec {
@@ -41,21 +45,212 @@ impl TangentSpec {
         self.displacement_m / self.speed_m_s
     }
 
-    /// z(t), m.
-    pub fn position_m(&self, t_s: f64) -> f64 {
-        -self.displacement_m * (-t_s / self.time_constant_s()).exp_m1()
+    /// The stroke from rest: from 0 toward D with time constant D / V0.
+    pub fn motion(&self) -> TangentMotion {
+        TangentMotion { from_m: 0.0, to_m: self.displacement_m, time_constant_s: self.time_constant_s() }
     }
 
-    /// z''(t) for t > 0, m/s^2 (the impulse at t = 0 is handled as initial velocities).
-    pub fn acceleration_m_s2(&self, t_s: f64) -> f64 {
-        let tau = self.time_constant_s();
-        -(self.speed_m_s / tau) * (-t_s / tau).exp()
+    /// z(t), m.
+    pub fn position_m(&self, t_s: f64) -> f64 {
+        let motion = self.motion();
+        motion.position_m(motion.remaining(t_s))
     }
 
     /// Modal acceleration of mode n per unit z'' (and modal velocity per unit jump in z').
     pub fn modal_gain(mode_number: usize) -> f64 {
         let sign = if mode_number.is_multiple_of(2) { 1.0 } else { -1.0 };
         2.0 * sign / (mode_number as f64 * PI)
+    }
+}
+
+/// The tangent's motion law: from `from_m` toward `to_m`, slowing exponentially
+/// with time constant tau (Thwaites & Fletcher 1981). With r = exp(-t / tau) the
+/// share of the way still to go,
+///
+///   z = to + (from - to) r,  z' = -(from - to) r / tau,  z'' = (from - to) r / tau^2.
+///
+/// A press (from the string's end where it is, toward the tangent's depth) and a
+/// lift (back to 0) are both this law; the synth advances r by a constant factor
+/// per sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TangentMotion {
+    pub from_m: f64,
+    pub to_m: f64,
+    pub time_constant_s: f64,
+}
+
+impl TangentMotion {
+    /// r at `t_s` after the motion began.
+    pub fn remaining(&self, t_s: f64) -> f64 {
+        (-t_s / self.time_constant_s).exp()
+    }
+
+    /// z with `remaining` = r of the way still to go, m.
+    pub fn position_m(&self, remaining: f64) -> f64 {
+        self.to_m + (self.from_m - self.to_m) * remaining
+    }
+
+    /// z', m/s.
+    pub fn velocity_m_s(&self, remaining: f64) -> f64 {
+        -(self.from_m - self.to_m) * remaining / self.time_constant_s
+    }
+
+    /// z'' (for t > 0: the jump of z' at t = 0 is an impulse, given to the modes as
+    /// velocities), m/s^2.
+    pub fn acceleration_m_s2(&self, remaining: f64) -> f64 {
+        (self.from_m - self.to_m) * remaining / (self.time_constant_s * self.time_constant_s)
+    }
+}
+
+/// What a tangent at the string's far end needs.
+struct TangentTables {
+    /// [`TangentSpec::modal_gain`] of every mode.
+    gains: Vec<f64>,
+    drive: DriveTable,
+    /// Omitted modes' static share of the force at the tangent and at the bridge, per unit z''.
+    residual_tangent_kg: f64,
+    residual_bridge_kg: f64,
+}
+
+/// A tangent on the string: its motion and how far along it is.
+#[derive(Clone, Copy)]
+pub struct TangentState {
+    motion: TangentMotion,
+    /// r now, advanced by `decay_per_sample` each sample (zero once negligible).
+    remaining: f64,
+    decay_per_sample: f64,
+    /// z'' held at the end of the last step (carried into the next pass), m/s^2.
+    acceleration_m_s2: f64,
+}
+
+impl TangentState {
+    fn position_m(&self) -> f64 {
+        self.motion.position_m(self.remaining)
+    }
+}
+
+/// A tangent's tables at the string's far end, and its state while it is on the string.
+pub struct TangentRig {
+    tables: TangentTables,
+    state: Option<TangentState>,
+}
+
+impl TangentRig {
+    /// The tables for a tangent at the far end of `string` (stepped by `bank`). Allocates.
+    pub fn new(string: &StringModes, bank: &ModalBank, audio: &StepTable) -> Self {
+        let gains: Vec<f64> = string.modes.iter().map(|m| TangentSpec::modal_gain(m.number)).collect();
+        let weights = bank.weights().to_vec();
+        let sign = |i: usize| if string.modes[i].number.is_multiple_of(2) { 1.0 } else { -1.0 };
+        let drive = drive_table(bank, audio, Hold::Linear, |i| gains[i], |i| sign(i) * weights[i]);
+        let (residual_tangent_kg, residual_bridge_kg) = residual::omitted_tangent_shares_kg(string);
+        Self { tables: TangentTables { gains, drive, residual_tangent_kg, residual_bridge_kg }, state: None }
+    }
+
+    /// Whether the tangent is on the string.
+    pub fn in_play(&self) -> bool {
+        self.state.is_some()
+    }
+
+    /// Whether nothing but free decay lies ahead: off the string, or at rest on it.
+    pub fn is_settled(&self) -> bool {
+        self.state.is_none_or(|s| s.remaining == 0.0)
+    }
+
+    /// Where the tangent holds the string's end now, m (0 off the string).
+    pub fn position_m(&self) -> f64 {
+        self.state.map_or(0.0, |s| s.position_m())
+    }
+
+    /// The tangent's state, while it is on the string.
+    pub fn state(&self) -> Option<TangentState> {
+        self.state
+    }
+
+    /// Where a tangent at rest holds the end, m (None while it moves or is off).
+    pub fn resting_at_m(&self) -> Option<f64> {
+        self.state.filter(|s| s.remaining == 0.0).map(|s| s.motion.to_m)
+    }
+
+    /// Drop the tangent where it is: the bank gets back its "input applied" form.
+    /// Allocates: no.
+    pub fn release(&mut self, bank: &mut ModalBank) {
+        if let Some(state) = self.state.take() {
+            bank.apply_ramp(&self.tables.drive, state.acceleration_m_s2);
+        }
+    }
+
+    /// Forget the tangent without touching the modes (they were reset or replaced).
+    pub fn forget(&mut self) {
+        self.state = None;
+    }
+
+    /// Move the string's end along `motion` from now on (its velocity was
+    /// `old_velocity_m_s`; the modes, measured from the straight line through the
+    /// moving end, take the opposite jump), stepped at `step_s`. The tangent must
+    /// have been released. Allocates: no.
+    pub fn start(&mut self, bank: &mut ModalBank, motion: TangentMotion, old_velocity_m_s: f64, step_s: f64) {
+        debug_assert!(self.state.is_none(), "a tangent in play is released before it moves anew");
+        let mut state = TangentState {
+            motion,
+            remaining: 1.0,
+            decay_per_sample: (-step_s / motion.time_constant_s).exp(),
+            acceleration_m_s2: 0.0,
+        };
+        let jump = motion.velocity_m_s(state.remaining) - old_velocity_m_s;
+        for (i, g) in self.tables.gains.iter().enumerate() {
+            bank.add_velocity(i, g * jump);
+        }
+        state.acceleration_m_s2 = motion.acceleration_m_s2(state.remaining);
+        bank.apply_ramp(&self.tables.drive, -state.acceleration_m_s2);
+        self.state = Some(state);
+    }
+
+    /// Carry on `state` (a tangent of a string this one replaces, whose modes were
+    /// copied), stepped at `step_s`. Allocates: no.
+    pub fn take_over(&mut self, bank: &mut ModalBank, mut state: TangentState, step_s: f64) {
+        state.decay_per_sample = (-step_s / state.motion.time_constant_s).exp();
+        bank.apply_ramp(&self.tables.drive, -state.acceleration_m_s2);
+        self.state = Some(state);
+    }
+
+    /// The present state without stepping (the tangent on the string of `string`).
+    pub fn current(&self, bank: &ModalBank, string: &StringModes) -> Option<Tick> {
+        let d = self.state.as_ref()?;
+        let t = &self.tables;
+        let a = d.acceleration_m_s2;
+        let z = d.position_m();
+        let line = string.tension_n * z / string.length_m;
+        Some(Tick {
+            contact_force_n: bank.observe(&t.drive) + (t.drive.observe_per_input + t.residual_tangent_kg) * a + line,
+            bridge_force_n: bank.bridge_force_n() + (t.drive.bridge_per_input + t.residual_bridge_kg) * a + line,
+            exciter_position_m: Some(z),
+            string_position_m: z,
+        })
+    }
+
+    /// Advance one sample with the tangent on the string; None (nothing done) when
+    /// it is off. Allocates: no.
+    pub fn tick(&mut self, bank: &mut ModalBank, audio: &StepTable, string: &StringModes) -> Option<Tick> {
+        let t = &self.tables;
+        let d = self.state.as_mut()?;
+        let (end_hat, bridge_hat) = bank.step_driven(audio, &t.drive, d.acceleration_m_s2);
+        // Below 1e-17 the tangent has arrived: stop before denormals.
+        d.remaining = if d.remaining > 1e-17 { d.remaining * d.decay_per_sample } else { 0.0 };
+        let a = d.motion.acceleration_m_s2(d.remaining);
+        d.acceleration_m_s2 = a;
+        let z = d.position_m();
+        let line = string.tension_n * z / string.length_m;
+        Some(Tick {
+            contact_force_n: end_hat + (t.drive.observe_per_input + t.residual_tangent_kg) * a + line,
+            bridge_force_n: bridge_hat + (t.drive.bridge_per_input + t.residual_bridge_kg) * a + line,
+            exciter_position_m: Some(z),
+            string_position_m: z,
+        })
+    }
+
+    /// The tangent's velocity now, m/s (0 off the string).
+    pub fn velocity_m_s(&self) -> f64 {
+        self.state.map_or(0.0, |s| s.motion.velocity_m_s(s.remaining))
     }
 }
 

@@ -100,6 +100,55 @@ pub fn omitted_tangent_shares_kg(string: &StringModes) -> (f64, f64) {
     (scale * at_tangent, -scale * at_bridge)
 }
 
+/// The omitted modes as seen from one strike point, for a hammer's contact: the
+/// spring R and dashpot c of the Kelvin-Voigt element above, and the static share
+/// of the bridge force.
+pub(crate) struct Residual {
+    /// Static compliance R, m/N.
+    pub compliance_m_n: f64,
+    /// Relaxation time c R, s.
+    time_constant_s: f64,
+    /// 1 / R, and S / R with S the static share of the bridge force per newton
+    /// (both 0 without omitted modes).
+    stiffness_n_m: f64,
+    bridge_per_m: f64,
+    /// exp(-h / (c R)) for a sample.
+    pub relax_audio: f64,
+}
+
+impl Residual {
+    pub fn new(string: &StringModes, position: f64, sample_s: f64) -> Self {
+        let compliance_m_n = omitted_compliance_m_n(string, position);
+        let time_constant_s = omitted_damping_ns_m(string, position) * compliance_m_n;
+        let bridge_share = omitted_bridge_share(string, position);
+        let stiffness_n_m = if compliance_m_n > 0.0 { 1.0 / compliance_m_n } else { 0.0 };
+        let mut residual = Self {
+            compliance_m_n,
+            time_constant_s,
+            stiffness_n_m,
+            bridge_per_m: bridge_share * stiffness_n_m,
+            relax_audio: 0.0,
+        };
+        residual.relax_audio = residual.relax(sample_s);
+        residual
+    }
+
+    /// exp(-h / (c R)): what is left of a displacement after `step_s` without force.
+    pub fn relax(&self, step_s: f64) -> f64 {
+        if self.time_constant_s > 0.0 { (-step_s / self.time_constant_s).exp() } else { 0.0 }
+    }
+
+    /// Static bridge force of a residual displacement, N.
+    pub fn bridge_force_n(&self, displacement_m: f64) -> f64 {
+        self.bridge_per_m * displacement_m
+    }
+
+    /// Energy in the residual spring, J.
+    pub fn energy_j(&self, displacement_m: f64) -> f64 {
+        0.5 * self.stiffness_n_m * displacement_m * displacement_m
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

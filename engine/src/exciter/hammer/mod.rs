@@ -14,9 +14,11 @@
 //! impulse it receives is exactly the sum of F h over the steps.
 
 pub mod contact;
+mod rig;
 pub mod substeps;
 
 pub use contact::ContactLaw;
+pub use rig::{HammerRig, Substep};
 
 /// A hammer or mallet and how it is thrown.
 #[derive(Clone, Copy, Debug, PartialEq)]

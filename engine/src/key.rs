@@ -8,7 +8,9 @@
 
 use std::ops::Range;
 
-use crate::design::{DamperDesign, ExciterDesign, KeyDesign};
+use crate::body::{Bridge, BridgePoint};
+use crate::damper::Damper;
+use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};
 use crate::exciter::hammer::HammerSpec;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
@@ -60,10 +62,10 @@ struct Note {
 
 pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
-    pub midi_key: u8,
-    pub strings: Vec<StruckString>,
+    midi_key: u8,
+    strings: Vec<StruckString>,
     notes: Vec<Note>,
-    damper: Option<DamperDesign>,
+    damper: Damper,
     /// Re Y of the shared bridge point (0: strings not coupled), and the force each
     /// string put on it last sample.
     bridge_coupling_s_kg: f64,
@@ -72,41 +74,40 @@ pub(crate) struct Key {
     force_now_n: Vec<f64>,
     /// The free strings' bridge force by lane, for a control block.
     lanes: Box<[[f64; LANES]; CONTROL_BLOCK]>,
-    pub gain_per_n: f64,
-    /// Constant-power pan gains.
-    pub pan_left: f64,
-    pub pan_right: f64,
+    /// Full scale per newton of bridge force.
+    gain_per_n: f64,
+    /// Where its strings bear on the bridge.
+    bridge_point: BridgePoint,
     // What the player is doing with it.
-    pub active: bool,
+    /// Sounding (struck and not yet silent or faded out).
+    active: bool,
     /// Notes held down, and notes struck since the key last fell silent (bit i: note i).
     held: u32,
     sounded: u32,
     /// Held up by the sostenuto pedal.
-    pub sostenuto: bool,
+    sostenuto: bool,
     /// The note whose pitch the strings speak at (a fretted clavichord: the highest tangent down).
     speaking: usize,
     /// Finger pressure 0..=1 (aftertouch), and its smoothed value.
-    pub pressure: f64,
+    pressure: f64,
     pressure_now: f64,
     /// How much deeper full pressure presses a tangent, as a fraction of its depth.
-    pub bebung: f64,
-    /// Damper engagement 0 (lifted) .. 1 (fully on the strings), and the values the poles were last set for.
-    damper_now: f64,
-    damper_set: f64,
+    bebung: f64,
+    /// The pitch the poles were last set for.
     pitch_set: f64,
     /// Output gain for stealing and resets: `fade` moves by `fade_step` per sample, within 0..=1.
-    pub fade: f64,
-    pub fade_step: f64,
+    fade: f64,
+    fade_step: f64,
     /// Upper bound on the key's output at the last control tick (full scale = 1).
-    pub level: f64,
+    level: f64,
     /// The loudest mode of its strings at the last control tick, N (0 while one is played).
     loudest_n: f64,
 }
 
 impl Key {
-    /// Build every table the key will need, for touches up to `top_speed_m_s`.
+    /// Build every table the key will need, for touches up to `touch.max()`.
     /// Allocates; off the audio thread.
-    pub fn build(design: KeyDesign, sample_rate_hz: f64, top_speed_m_s: f64) -> Result<Self, StringError> {
+    pub fn build(design: KeyDesign, sample_rate_hz: f64, touch: TouchRange) -> Result<Self, StringError> {
         let mut notes = vec![Note {
             midi_key: design.midi_key,
             struck: design.struck.clone(),
@@ -126,8 +127,8 @@ impl Key {
         // Each hammer's strikes measured on the last string it reaches, with its
         // share of the hammer (as `press` splits it).
         for note in &mut notes {
-            if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last)) =
-                (note.exciter, note.struck.clone().last())
+            if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last), Some(top_speed_m_s)) =
+                (note.exciter, note.struck.clone().last(), touch.top_speed_m_s())
             {
                 let hammer = HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position);
                 note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
@@ -154,19 +155,17 @@ impl Key {
             }
             strings.push(s);
         }
-        let angle = (design.pan.clamp(-1.0, 1.0) + 1.0) * std::f64::consts::FRAC_PI_4;
         Ok(Self {
             midi_key: design.midi_key,
             strings,
             notes,
-            damper: design.damper,
+            damper: Damper::new(design.damper),
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
             force_now_n: vec![0.0; design.strings.len()],
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
-            pan_left: angle.cos() * std::f64::consts::SQRT_2,
-            pan_right: angle.sin() * std::f64::consts::SQRT_2,
+            bridge_point: BridgePoint::panned(design.pan),
             active: false,
             held: 0,
             sounded: 0,
@@ -175,14 +174,57 @@ impl Key {
             pressure: 0.0,
             pressure_now: 0.0,
             bebung: 0.0,
-            damper_now: 0.0,
-            damper_set: 0.0,
             pitch_set: 1.0,
             fade: 1.0,
             fade_step: 0.0,
             level: 0.0,
             loudest_n: 0.0,
         })
+    }
+
+    /// The MIDI key the course is listed under (its first note).
+    pub fn midi_key(&self) -> u8 {
+        self.midi_key
+    }
+
+    /// Whether it is sounding: struck, and neither silent yet nor faded out.
+    pub fn is_sounding(&self) -> bool {
+        self.active
+    }
+
+    /// Whether it is fading out (stolen, reset, or its instrument replaced).
+    pub fn is_fading_out(&self) -> bool {
+        self.fade_step < 0.0
+    }
+
+    /// Upper bound on its output at the last control tick (full scale = 1).
+    pub fn level(&self) -> f64 {
+        self.level
+    }
+
+    /// Fade it out over `seconds`, then silence it (at the next control tick).
+    pub fn fade_out(&mut self, seconds: f64, sample_rate_hz: f64) {
+        self.fade_step = -1.0 / (seconds * sample_rate_hz);
+    }
+
+    /// The sostenuto pedal goes down: a sounding key held now stays up with it.
+    pub fn catch_sostenuto(&mut self) {
+        self.sostenuto = self.active && self.down();
+    }
+
+    /// The sostenuto pedal comes up.
+    pub fn drop_sostenuto(&mut self) {
+        self.sostenuto = false;
+    }
+
+    /// The finger's pressure on the key, 0..=1 (aftertouch).
+    pub fn set_pressure(&mut self, pressure: f64) {
+        self.pressure = pressure.clamp(0.0, 1.0);
+    }
+
+    /// How much deeper full pressure presses a tangent, as a fraction of its depth.
+    pub fn set_bebung(&mut self, bebung: f64) {
+        self.bebung = bebung;
     }
 
     /// The MIDI keys that play this course, with their note numbers.
@@ -218,10 +260,20 @@ impl Key {
         &self.strings[last]
     }
 
-    /// Note `note` goes down at exciter speed (or pluck height) `touch`, with the
-    /// mallet's hardness `hardness` times as built.
-    pub fn press(&mut self, note: usize, touch: f64, una_corda: bool, hardness: f64, bend: f64) {
+    /// Note `note` goes down with `touch` (a speed for hammers, mallets and
+    /// tangents, a lift for a plectrum), with the mallet's hardness `hardness`
+    /// times as built. A touch in the other unit than the note's exciter is
+    /// ignored.
+    pub fn press(&mut self, note: usize, touch: Touch, una_corda: bool, hardness: f64, bend: f64) {
         let Some(played) = self.notes.get(note) else { return };
+        let fits = match played.exciter {
+            ExciterDesign::Pluck { .. } => matches!(touch, Touch::PluckHeight { .. }),
+            _ => matches!(touch, Touch::Speed { .. }),
+        };
+        if !fits {
+            return;
+        }
+        let touch = touch.value();
         let bit = 1u32 << note;
         self.active = true;
         if self.fade < 1.0 || self.fade_step < 0.0 {
@@ -229,9 +281,7 @@ impl Key {
         }
         // The damper leaves the strings before the hammer arrives (a cimbalom's
         // damper bar answers the pedal alone).
-        if !self.damper.is_some_and(|d| d.pedal_only) {
-            self.damper_now = 0.0;
-        }
+        self.damper.lift_for_strike();
         if let ExciterDesign::Tangent { .. } = played.exciter {
             // The higher tangent wins: a lower one under it meets a string it does not
             // sound, and waits there in case the higher key comes up first.
@@ -313,16 +363,6 @@ impl Key {
         }
     }
 
-    /// Where the damper is headed, given the pedals.
-    fn damper_target(&self, sustain: f64) -> f64 {
-        match self.damper {
-            None => 0.0,
-            Some(d) if d.pedal_only => (1.0 - sustain).clamp(0.0, 1.0),
-            Some(_) if self.down() || self.sostenuto => 0.0,
-            Some(_) => (1.0 - sustain).clamp(0.0, 1.0),
-        }
-    }
-
     /// The strings' pitch over their own: the bend, the speaking note's interval
     /// and, under a tangent, the stretch of the press. A tangent holding the end at
     /// W raises the tension by the factor 1 + s W^2 and the pitch by its square
@@ -349,14 +389,11 @@ impl Key {
             self.silence();
             return true;
         }
-        if let Some(d) = self.damper {
-            let target = self.damper_target(sustain);
-            let step = block_s / d.travel_s.max(block_s);
-            self.damper_now += (target - self.damper_now).clamp(-step, step);
-        }
+        let held = self.down() || self.sostenuto;
+        self.damper.follow(block_s, held, sustain);
         self.pressure_now += (self.pressure - self.pressure_now) * (1.0 - (-block_s / PRESSURE_SMOOTHING_S).exp());
         let pitch = self.pitch(bend);
-        if self.damper_now != self.damper_set || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
+        if self.damper.moved() || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
             self.set_poles(pitch);
         }
         let mut settled = true;
@@ -384,14 +421,10 @@ impl Key {
 
     /// Set every string's free step for the damper's present engagement and `pitch`.
     fn set_poles(&mut self, pitch: f64) {
-        let (rate_s, rate_per_hz_s) = match self.damper {
-            Some(d) => (d.rate_s * self.damper_now, d.rate_per_hz_s * self.damper_now),
-            None => (0.0, 0.0),
-        };
+        let (rate_s, rate_per_hz_s) = self.damper.extra_decay();
         for s in &mut self.strings {
             s.set_free_step(rate_s, rate_per_hz_s, pitch);
         }
-        self.damper_set = self.damper_now;
         self.pitch_set = pitch;
     }
 
@@ -413,9 +446,32 @@ impl Key {
         self.loudest_n = 0.0;
     }
 
+    /// Drive `bridge` for its stretch with the key's force at its output gain,
+    /// moving its fade; `scratch` is as long as the stretch. The summed contact
+    /// force goes to `contact` when given.
+    pub fn sound(&mut self, bridge: &mut Bridge, scratch: &mut [f64], contact: Option<&mut [f32]>) {
+        scratch.fill(0.0);
+        self.render(scratch, contact);
+        for v in scratch.iter_mut() {
+            *v = *v * self.gain_per_n * self.fade;
+            if self.fade_step != 0.0 {
+                self.fade = (self.fade + self.fade_step).clamp(0.0, 1.0);
+                if self.fade >= 1.0 && self.fade_step > 0.0 {
+                    self.fade_step = 0.0;
+                }
+            }
+        }
+        if self.fade <= 0.0 && self.fade_step < 0.0 {
+            // Faded out: silent from the next sample; reported at the next control tick.
+            self.fade_step = 0.0;
+            self.fade = 0.0;
+        }
+        bridge.drive(self.bridge_point, scratch);
+    }
+
     /// Add the key's summed bridge force (N) over `out.len()` samples to `out`,
     /// and the summed contact force to `contact` when given.
-    pub fn render(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
+    fn render(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
         if self.bridge_coupling_s_kg > 0.0 {
             self.render_coupled(out, contact);
             return;
@@ -484,7 +540,7 @@ impl Key {
         if self.bridge_force_n.len() == old.bridge_force_n.len() {
             self.bridge_force_n.copy_from_slice(&old.bridge_force_n);
         }
-        self.damper_now = old.damper_now;
+        self.damper.take_over(&old.damper);
         self.fade = old.fade;
         self.fade_step = old.fade_step;
         self.level = old.level;

@@ -38,6 +38,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod body;
+pub(crate) mod damper;
 pub mod design;
 pub mod exciter;
 pub(crate) mod key;

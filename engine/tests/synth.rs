@@ -277,12 +277,18 @@ fn silent_keys_stop_and_are_reported() {
 fn velocity_curve_maps_the_touch_range() {
     let c = Controls::default();
     let range = InstrumentKind::Piano.touch_range();
-    assert!((c.touch(range, 1.0) - range.max).abs() < 1e-9);
-    assert!((c.touch(range, 0.0) - range.min).abs() < 1e-9);
+    let (min, max) = range.bounds();
+    assert!((c.touch(range, 1.0).value() - max).abs() < 1e-9);
+    assert!((c.touch(range, 0.0).value() - min).abs() < 1e-9);
+    assert_eq!(c.touch(range, 0.5).unit(), "m/s");
     let hard = Controls { touch_shape: 2.0, ..c };
-    assert!(hard.touch(range, 0.5) < c.touch(range, 0.5));
+    assert!(hard.touch(range, 0.5).value() < c.touch(range, 0.5).value());
     let narrow = Controls { touch_min: 0.5, touch_max: 0.5, ..c };
-    assert!((narrow.touch(range, 0.1) - narrow.touch(range, 0.9)).abs() < 1e-12);
+    assert!((narrow.touch(range, 0.1).value() - narrow.touch(range, 0.9).value()).abs() < 1e-12);
+    // A harpsichord's velocity lifts its plectrum: millimetres, not a speed.
+    let pluck = InstrumentKind::Harpsichord.touch_range();
+    assert_eq!(c.touch(pluck, 0.5).unit(), "mm");
+    assert_eq!(pluck.top_speed_m_s(), None);
 }
 
 #[test]

@@ -16,7 +16,7 @@ use struck_engine::tuning::{A4_RANGE_HZ, ScalaScale, Temperament, TuningSettings
 
 /// The instrument choice as a host parameter (ids are permanent).
 #[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Instrument {
+pub enum InstrumentChoice {
     #[id = "piano"]
     Piano,
     #[id = "fortepiano"]
@@ -34,27 +34,27 @@ pub enum Instrument {
     Harpsichord,
 }
 
-impl Instrument {
+impl InstrumentChoice {
     pub fn kind(self) -> InstrumentKind {
         match self {
-            Instrument::Piano => InstrumentKind::Piano,
-            Instrument::Fortepiano => InstrumentKind::Fortepiano,
-            Instrument::Santoor => InstrumentKind::Santoor,
-            Instrument::Dulcimer => InstrumentKind::Dulcimer,
-            Instrument::Cimbalom => InstrumentKind::Cimbalom,
-            Instrument::Clavichord => InstrumentKind::Clavichord,
-            Instrument::Harpsichord => InstrumentKind::Harpsichord,
+            InstrumentChoice::Piano => InstrumentKind::Piano,
+            InstrumentChoice::Fortepiano => InstrumentKind::Fortepiano,
+            InstrumentChoice::Santoor => InstrumentKind::Santoor,
+            InstrumentChoice::Dulcimer => InstrumentKind::Dulcimer,
+            InstrumentChoice::Cimbalom => InstrumentKind::Cimbalom,
+            InstrumentChoice::Clavichord => InstrumentKind::Clavichord,
+            InstrumentChoice::Harpsichord => InstrumentKind::Harpsichord,
         }
     }
 
-    pub const ALL: [Instrument; 7] = [
-        Instrument::Piano,
-        Instrument::Fortepiano,
-        Instrument::Santoor,
-        Instrument::Dulcimer,
-        Instrument::Cimbalom,
-        Instrument::Clavichord,
-        Instrument::Harpsichord,
+    pub const ALL: [InstrumentChoice; 7] = [
+        InstrumentChoice::Piano,
+        InstrumentChoice::Fortepiano,
+        InstrumentChoice::Santoor,
+        InstrumentChoice::Dulcimer,
+        InstrumentChoice::Cimbalom,
+        InstrumentChoice::Clavichord,
+        InstrumentChoice::Harpsichord,
     ];
 }
 
@@ -136,7 +136,7 @@ pub struct StruckParams {
 #[derive(Params)]
 pub struct InstrumentParams {
     #[id = "inst"]
-    pub kind: EnumParam<Instrument>,
+    pub kind: EnumParam<InstrumentChoice>,
 }
 
 #[derive(Params)]
@@ -235,7 +235,7 @@ fn percent_param(name: &str, default: f32) -> FloatParam {
 impl Default for StruckParams {
     fn default() -> Self {
         Self {
-            instrument: InstrumentParams { kind: EnumParam::new("Instrument", Instrument::Piano) },
+            instrument: InstrumentParams { kind: EnumParam::new("Instrument", InstrumentChoice::Piano) },
             touch: TouchParams {
                 min: percent_param("Touch min", 0.0),
                 max: percent_param("Touch max", 1.0),

@@ -55,7 +55,9 @@ use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 
 /// Beater speeds from a soft touch to a hard stroke, m/s (the santoor's range).
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.3, max: 4.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 4.0;
 
 /// The highest wound course.
 const LAST_WOUND_KEY: u8 = 51;
@@ -198,7 +200,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         length_m,
         position,
         BEATER_MASS_KG.log(midi_key),
-        TOUCH.max,
+        TOP_SPEED_M_S,
     );
     KeyDesign {
         midi_key,

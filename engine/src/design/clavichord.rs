@@ -57,7 +57,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 /// 1 - exp(-t V0 / D), so 0.1 m/s (the quiet note of the comparison in
 /// `engine/tests/seed_clavichord.rs`) is 92 % of the way after 50 ms, and 1 m/s
 /// is as far after 5 ms.
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 1.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 1.0;
 
 const STRINGS: usize = 2;
 
@@ -233,7 +235,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
     // tangent's quick deceleration and the string's dispersion smear that step:
     // the peak comes out at 0.72 of the sum on every key (fitted). The gain
     // follows the instrument as built, not the voiced depth.
-    let peak_per_string_n = 0.72 * (2.0 * (tension_n * mu).sqrt() * TOUCH.max + tension_n * built_m / length_m);
+    let peak_per_string_n = 0.72 * (2.0 * (tension_n * mu).sqrt() * TOP_SPEED_M_S + tension_n * built_m / length_m);
     // Three round trips of a wave over the whole length, hitch pin to bridge.
     let wave_speed_m_s = 2.0 * length_m * f1_hz;
     let damped_60_db_s = DAMPING_ROUND_TRIPS * 2.0 * COMPLETE_LENGTH_M / wave_speed_m_s;
@@ -380,8 +382,8 @@ mod tests {
     fn the_touch_spans_the_seeds_extremes() {
         // Fastest: the 2 mm is more or less covered in 5 ms; slowest: not yet after 50 ms.
         let covered = |speed_m_s: f64, t_s: f64| 1.0 - (-t_s * speed_m_s / TANGENT_DISPLACEMENT_M).exp();
-        assert!(covered(TOUCH.max, 5e-3) > 0.9);
-        assert!(covered(TOUCH.min, 50e-3) < 0.95);
-        assert!(covered(TOUCH.min, 50e-3) > 0.5);
+        assert!(covered(TOP_SPEED_M_S, 5e-3) > 0.9);
+        assert!(covered(TOUCH.bounds().0, 50e-3) < 0.95);
+        assert!(covered(TOUCH.bounds().0, 50e-3) > 0.5);
     }
 }

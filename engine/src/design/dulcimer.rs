@@ -56,7 +56,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 50..=86;
 
 /// Hammer speeds from a soft touch to a hard stroke, m/s (the santoor's: the same
 /// light hammers and wrist strokes).
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.3, max: 4.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 4.0;
 
 const STRINGS: usize = 2;
 /// The highest bass course, and the highest long side of a treble course.
@@ -248,7 +250,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     let tension_n = wire.tension_n(long_m, key_frequency_hz(midi_key));
     let z = n * (tension_n * mu).sqrt();
     let position = STRIKE_POSITION.linear(midi_key);
-    let mut peak_n = struck_peak_n(z, n * tension_n, long_m, position, HAMMER_MASS_KG, TOUCH.max);
+    let mut peak_n = struck_peak_n(z, n * tension_n, long_m, position, HAMMER_MASS_KG, TOP_SPEED_M_S);
     let pan = pan(midi_key, *KEYS.start()..=LAST_LONG_SIDE_KEY);
     let mut shared = Vec::new();
     let mut bridge_coupling_s_kg = 0.0;
@@ -269,7 +271,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         bridge_coupling_s_kg = BRIDGE_COUPLING_S_KG * voicing.damping.max(0.0);
         if KEYS.contains(&fifth) && fifth > LAST_LONG_SIDE_KEY {
             let position = STRIKE_POSITION.linear(fifth);
-            let short_peak_n = struck_peak_n(z, n * tension_n, short_m, position, HAMMER_MASS_KG, TOUCH.max);
+            let short_peak_n = struck_peak_n(z, n * tension_n, short_m, position, HAMMER_MASS_KG, TOP_SPEED_M_S);
             peak_n = peak_n.max(short_peak_n);
             shared.push(SharedKey {
                 midi_key: fifth,

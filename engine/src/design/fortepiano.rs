@@ -44,7 +44,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 29..=91;
 
 /// Hammer speeds from pianissimo to fortissimo, m/s (assumed: a Viennese key
 /// falls about 6 mm, against a modern key's 10, and is far lighter).
-pub(super) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 4.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 4.0;
 
 /// A soundboard bridge of Re Y = 5e-3 s/kg, and the wire's internal friction.
 const BRIDGE_ADMITTANCE_S_KG: f64 = 5.0e-3;
@@ -115,7 +117,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         exciter: row.hammer(voicing),
         // 60 dB in 0.35 s at F1 shortening to 0.12 s at G6: light, quick dampers.
         damper: Some(damper(0.35 * (0.12f64 / 0.35).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.012)),
-        gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOUCH.max), pan(midi_key, KEYS)),
+        gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

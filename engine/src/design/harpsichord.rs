@@ -44,7 +44,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 36..=86;
 /// tangent's), and 1.3 mm at the softest. A plectrum lets go of the string at
 /// much the same height however fast the key goes down, so the touch spans only
 /// 3.7 dB.
-pub(super) const TOUCH: TouchRange = TouchRange { min: 1.3, max: 2.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::PluckHeight { min_mm: 1.3, max_mm: TOP_LIFT_MM };
+/// The hardest touch: the plectrum's highest lift, mm.
+const TOP_LIFT_MM: f64 = 2.0;
 
 /// String length, m, and plucking point from the nut, m (the Naples instrument).
 const LENGTH_M: Table = Table(&[
@@ -130,7 +132,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     // stiffness dephases the partials, its peak over the first tenth of a second
     // comes to 1.3 times the two added in quadrature (fitted: within 0.5 dB on
     // every key).
-    let height_m = TOUCH.max * 1e-3;
+    let height_m = TOP_LIFT_MM * 1e-3;
     let peak_n = 1.3 * tension_n * height_m / length_m * (position.powi(-2) + (1.0 - position).powi(-2)).sqrt();
     KeyDesign {
         midi_key,

@@ -112,12 +112,85 @@ impl FromStr for InstrumentKind {
     }
 }
 
-/// The range of exciter speeds velocity maps onto, m/s (for a pluck: the pluck
-/// height in mm, so the same curve shapes it).
+/// What a key's velocity sets: how fast a hammer, mallet or tangent meets the
+/// string, or how far a plectrum lifts it before letting go. One enum so the two
+/// units never share a bare number.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TouchRange {
-    pub min: f64,
-    pub max: f64,
+pub enum Touch {
+    /// Exciter speed toward the string, m/s.
+    Speed { m_s: f64 },
+    /// Plectrum lift at the pluck point, mm.
+    PluckHeight { mm: f64 },
+}
+
+impl Touch {
+    /// The number in its own unit (see [`Touch::unit`]).
+    pub fn value(self) -> f64 {
+        match self {
+            Touch::Speed { m_s } => m_s,
+            Touch::PluckHeight { mm } => mm,
+        }
+    }
+
+    /// `"m/s"` or `"mm"`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Touch::Speed { .. } => "m/s",
+            Touch::PluckHeight { .. } => "mm",
+        }
+    }
+
+    /// The exciter speed, if this is one.
+    pub fn speed_m_s(self) -> Option<f64> {
+        match self {
+            Touch::Speed { m_s } => Some(m_s),
+            Touch::PluckHeight { .. } => None,
+        }
+    }
+}
+
+/// The softest and hardest touch velocity maps onto (velocity 1 and 127 at the
+/// default curve), in the unit the instrument's exciter is played in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TouchRange {
+    /// Exciter speeds, m/s.
+    Speed { min_m_s: f64, max_m_s: f64 },
+    /// Plectrum lifts, mm.
+    PluckHeight { min_mm: f64, max_mm: f64 },
+}
+
+impl TouchRange {
+    /// The softest touch.
+    pub fn min(self) -> Touch {
+        self.with(self.bounds().0)
+    }
+
+    /// The hardest touch.
+    pub fn max(self) -> Touch {
+        self.with(self.bounds().1)
+    }
+
+    /// Softest and hardest as bare numbers in the range's unit.
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            TouchRange::Speed { min_m_s, max_m_s } => (min_m_s, max_m_s),
+            TouchRange::PluckHeight { min_mm, max_mm } => (min_mm, max_mm),
+        }
+    }
+
+    /// A touch of `value` in the range's unit.
+    pub fn with(self, value: f64) -> Touch {
+        match self {
+            TouchRange::Speed { .. } => Touch::Speed { m_s: value },
+            TouchRange::PluckHeight { .. } => Touch::PluckHeight { mm: value },
+        }
+    }
+
+    /// The fastest exciter speed, if the range is of speeds (hammer tables are
+    /// built for it).
+    pub fn top_speed_m_s(self) -> Option<f64> {
+        self.max().speed_m_s()
+    }
 }
 
 /// The player's voicing: scale factors on the instrument's own per-key values

@@ -27,7 +27,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
 /// Hammer speeds from pianissimo to fortissimo (Boutillon 1988 measured 0.11 to
 /// 6.83 m/s), m/s.
-pub(crate) const TOUCH: TouchRange = TouchRange { min: 0.1, max: 7.0 };
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 7.0;
 
 /// Keys above this have no damper (their strings ring short anyway).
 const LAST_DAMPED_KEY: u8 = 90;
@@ -106,7 +108,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
             let t = (midi_key - KEYS.start()) as f64 / (LAST_DAMPED_KEY - KEYS.start()) as f64;
             damper(0.45 * (0.15f64 / 0.45).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.015)
         }),
-        gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOUCH.max), pan(midi_key, KEYS)),
+        gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
         pan: pan(midi_key, KEYS),
     }
 }

@@ -30,7 +30,9 @@ pub(super) const KEYS: RangeInclusive<u8> = 52..=89;
 
 /// Mallet speeds from a soft touch to a hard stroke, m/s (Woodhouse's examples
 /// use 1 m/s; a wrist stroke with a light mallet reaches a few m/s).
-pub(crate) const TOUCH: TouchRange = TouchRange { min: 0.3, max: 4.0 };
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+/// The hardest touch: the fastest the exciter meets the string, m/s.
+const TOP_SPEED_M_S: f64 = 4.0;
 
 const STRINGS: usize = 4;
 const WIRE_DIAMETER_M: f64 = 0.5e-3;
@@ -102,7 +104,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
     let mallet_mass_kg = n * MALLET_MASS_PER_STRING_KG.log(midi_key);
     let position = STRIKE_POSITION.linear(midi_key);
     let peak_n =
-        struck_peak_n(n * (tension_n * mu).sqrt(), n * tension_n, length_m, position, mallet_mass_kg, TOUCH.max);
+        struck_peak_n(n * (tension_n * mu).sqrt(), n * tension_n, length_m, position, mallet_mass_kg, TOP_SPEED_M_S);
     let law = ContactLaw { stiffness: n * MALLET_STIFFNESS_PER_STRING_N_M, exponent: 1.0 };
     KeyDesign {
         midi_key,

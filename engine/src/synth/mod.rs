@@ -21,7 +21,8 @@ pub use event::{Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
-use crate::design::{self, InstrumentKind, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use crate::body::Bridge;
+use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::Key;
 use crate::string::StringError;
 use crate::string::Tuning;
@@ -107,13 +108,14 @@ impl Default for Controls {
 }
 
 impl Controls {
-    /// Exciter speed (or pluck height) for a velocity in (0, 1].
-    pub fn touch(&self, range: TouchRange, velocity: f64) -> f64 {
-        let span = (range.max / range.min).ln();
+    /// The touch (exciter speed or pluck height) for a velocity in (0, 1].
+    pub fn touch(&self, range: TouchRange, velocity: f64) -> Touch {
+        let (min, max) = range.bounds();
+        let span = (max / min).ln();
         let lo = self.touch_min.clamp(0.0, 1.0);
         let hi = self.touch_max.clamp(0.0, 1.0);
         let v = velocity.clamp(0.0, 1.0).powf(self.touch_shape.clamp(0.1, 10.0));
-        range.min * (span * (lo + (hi - lo) * v)).exp()
+        range.with(min * (span * (lo + (hi - lo) * v)).exp())
     }
 }
 
@@ -152,7 +154,7 @@ impl Instrument {
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
             let design = tuned(design, &frequencies_hz);
             {
-                match Key::build(design, fs, settings.kind.touch_range().max) {
+                match Key::build(design, fs, settings.kind.touch_range()) {
                     Ok(key) => {
                         for (note, k) in key.note_keys() {
                             route[k as usize & 127] = Some((midi_key, note as u8));
@@ -176,7 +178,7 @@ impl Instrument {
     }
 
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
-        self.keys.iter().flatten().filter(|k| k.active)
+        self.keys.iter().flatten().filter(|k| k.is_sounding())
     }
 
     /// Modes of every string of every key (below [`MAX_MODE_FREQUENCY_HZ`]).
@@ -244,8 +246,9 @@ pub struct Synth {
     dc_r: f64,
     /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
     glide: f64,
-    mono: [f64; CONTROL_BLOCK],
-    mix: [[f64; CONTROL_BLOCK]; 2],
+    /// What the keys drive, and one key's force for a stretch.
+    bridge: Bridge,
+    scratch: [f64; CONTROL_BLOCK],
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
 }
@@ -271,8 +274,8 @@ impl Synth {
             dc: [DcBlock::default(); 2],
             dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
             glide: glide_step(fs),
-            mono: [0.0; CONTROL_BLOCK],
-            mix: [[0.0; CONTROL_BLOCK]; 2],
+            bridge: Bridge::default(),
+            scratch: [0.0; CONTROL_BLOCK],
             ended: Vec::with_capacity(1024),
             scope,
         };
@@ -316,7 +319,7 @@ impl Synth {
     /// Whether the strings `midi_key` plays on the instrument now playing are sounding.
     pub fn key_sounding(&self, midi_key: u8) -> bool {
         let Some(Some((home, _))) = self.current.route.get(midi_key as usize) else { return false };
-        self.current.keys[*home as usize].as_ref().is_some_and(|k| k.active)
+        self.current.keys[*home as usize].as_ref().is_some_and(Key::is_sounding)
     }
 
     /// Keys that fell silent during the last [`Self::process`] call.
@@ -334,7 +337,7 @@ impl Synth {
         if instrument.settings.kind == self.current.settings.kind && instrument.route == self.current.route {
             for (new, old) in instrument.keys.iter_mut().zip(self.current.keys.iter_mut()) {
                 if let (Some(new), Some(old)) = (new, old)
-                    && old.active
+                    && old.is_sounding()
                 {
                     new.take_over(old, bend);
                 }
@@ -344,8 +347,8 @@ impl Synth {
         } else {
             let mut old = std::mem::replace(&mut self.current, instrument);
             let fs = old.settings.sample_rate_hz;
-            for key in old.keys.iter_mut().flatten().filter(|k| k.active) {
-                key.fade_step = -1.0 / (SWITCH_FADE_S * fs);
+            for key in old.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+                key.fade_out(SWITCH_FADE_S, fs);
             }
             if let Some(previous) = self.outgoing.replace(old) {
                 self.retire(previous);
@@ -419,11 +422,11 @@ impl Synth {
                 let down = v >= 0.5;
                 if down && !self.sostenuto {
                     for k in self.current.keys.iter_mut().flatten() {
-                        k.sostenuto = k.active && k.down();
+                        k.catch_sostenuto();
                     }
                 } else if !down {
                     for k in self.current.keys.iter_mut().flatten() {
-                        k.sostenuto = false;
+                        k.drop_sostenuto();
                     }
                 }
                 self.sostenuto = down;
@@ -432,7 +435,7 @@ impl Synth {
             Event::ModWheel(v) if v.is_finite() => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
             Event::Pressure { key, pressure } if pressure.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
-                    k.pressure = (pressure as f64).clamp(0.0, 1.0);
+                    k.set_pressure(pressure as f64);
                 }
             }
             Event::ModWheel(_) | Event::Pressure { .. } => {}
@@ -447,9 +450,9 @@ impl Synth {
             }
             Event::Reset => {
                 let fs = self.current.settings.sample_rate_hz;
-                for k in self.current.keys.iter_mut().flatten().filter(|k| k.active) {
+                for k in self.current.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                     k.release_all();
-                    k.fade_step = -1.0 / (STEAL_FADE_S * fs);
+                    k.fade_out(STEAL_FADE_S, fs);
                 }
                 self.sustain = 0.0;
                 self.sostenuto = false;
@@ -463,7 +466,7 @@ impl Synth {
 
     fn note_on(&mut self, midi_key: u8, velocity: f64) {
         let Some((key, _)) = self.current.route(midi_key) else { return };
-        if !key.active {
+        if !key.is_sounding() {
             self.make_room();
         }
         let touch = self.controls.touch(self.current.touch, velocity);
@@ -471,9 +474,9 @@ impl Synth {
         let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
         let (una_corda, bend, bebung) = (self.una_corda, self.bend, self.controls.bebung);
         let Some((key, note)) = self.current.route(midi_key) else { return };
-        key.bebung = bebung;
+        key.set_bebung(bebung);
         key.press(note, touch, una_corda, hardness, bend);
-        let home = key.midi_key;
+        let home = key.midi_key();
         self.scope.struck(home);
     }
 
@@ -485,17 +488,17 @@ impl Synth {
 
     /// Below the polyphony cap, or steal: the quietest released key first, else the quietest.
     fn make_room(&mut self) {
-        let playing = self.current.active_keys().filter(|k| k.fade_step >= 0.0).count();
+        let playing = self.current.active_keys().filter(|k| !k.is_fading_out()).count();
         if playing < self.controls.polyphony.max(1) {
             return;
         }
         let fs = self.current.settings.sample_rate_hz;
         let victim =
-            self.current.keys.iter_mut().flatten().filter(|k| k.active && k.fade_step >= 0.0).min_by(|a, b| {
-                (a.down(), a.level).partial_cmp(&(b.down(), b.level)).unwrap_or(std::cmp::Ordering::Equal)
+            self.current.keys.iter_mut().flatten().filter(|k| k.is_sounding() && !k.is_fading_out()).min_by(|a, b| {
+                (a.down(), a.level()).partial_cmp(&(b.down(), b.level())).unwrap_or(std::cmp::Ordering::Equal)
             });
         if let Some(k) = victim {
-            k.fade_step = -1.0 / (STEAL_FADE_S * fs);
+            k.fade_out(STEAL_FADE_S, fs);
         }
     }
 
@@ -503,8 +506,8 @@ impl Synth {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
-                key.bebung = bebung;
+            for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+                key.set_bebung(bebung);
                 if key.control(block_s, sustain, bend, SILENCE) {
                     for k in key.take_sounded() {
                         if self.ended.len() < self.ended.capacity() {
@@ -519,44 +522,25 @@ impl Synth {
             self.retire(old);
         }
         if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {
-            self.scope.control(key.midi_key, key.watched_string());
+            self.scope.control(key.midi_key(), key.watched_string());
         }
     }
 
     fn render(&mut self, left: &mut [f32], right: &mut [f32]) {
         let n = left.len();
-        let [mix_l, mix_r] = &mut self.mix;
-        mix_l[..n].fill(0.0);
-        mix_r[..n].fill(0.0);
+        self.bridge.start(n);
         let scope_key = self.scope.key();
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            for key in instrument.keys.iter_mut().flatten().filter(|k| k.active) {
-                let mono = &mut self.mono[..n];
-                mono.fill(0.0);
-                let watched = scope_key == Some(key.midi_key);
+            for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+                let watched = scope_key == Some(key.midi_key());
                 let contact = if watched { self.scope.contact_slots(n) } else { None };
-                key.render(mono, contact);
+                key.sound(&mut self.bridge, &mut self.scratch[..n], contact);
                 if watched {
                     self.scope.during_contact(key.watched_string());
                 }
-                for t in 0..n {
-                    let v = mono[t] * key.gain_per_n * key.fade;
-                    mix_l[t] += v * key.pan_left;
-                    mix_r[t] += v * key.pan_right;
-                    if key.fade_step != 0.0 {
-                        key.fade = (key.fade + key.fade_step).clamp(0.0, 1.0);
-                        if key.fade >= 1.0 && key.fade_step > 0.0 {
-                            key.fade_step = 0.0;
-                        }
-                    }
-                }
-                if key.fade <= 0.0 && key.fade_step < 0.0 {
-                    // Faded out: silent from the next sample; reported at the next control tick.
-                    key.fade_step = 0.0;
-                    key.fade = 0.0;
-                }
             }
         }
+        let (mix_l, mix_r) = self.bridge.radiated();
         let (glide, r) = (self.glide, self.dc_r);
         for t in 0..n {
             self.gain += (self.controls.output_gain - self.gain) * glide;

@@ -13,7 +13,7 @@ use struck_engine::preset::{Preset, factory_presets, list_user_presets, save_use
 use struck_engine::tuning::{KeyboardMapping, ScalaScale};
 
 use super::{group, set, slider, temperament_row};
-use crate::params::{Instrument, StruckParams, TemperamentChoice};
+use crate::params::{InstrumentChoice, StruckParams, TemperamentChoice};
 
 /// What the panel last did, for the line under the buttons.
 enum Status {
@@ -204,7 +204,7 @@ fn load_scale(scl: &str, kbm: &str) -> Result<ScalaScale, String> {
 /// Set every parameter from `preset` (values beyond a parameter's range are held at its end).
 fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     if let Some(kind) = preset.instrument
-        && let Some(choice) = Instrument::ALL.into_iter().find(|c| c.kind() == kind)
+        && let Some(choice) = InstrumentChoice::ALL.into_iter().find(|c| c.kind() == kind)
     {
         set(setter, &params.instrument.kind, choice);
     }

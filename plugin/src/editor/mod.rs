@@ -22,8 +22,9 @@ use nice_plug_egui::{
     EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier, baseview, create_egui_editor,
 };
 use struck_engine::synth::Scope;
+use struck_engine::design::TouchRange;
 
-use crate::params::{Instrument, StruckParams, TemperamentChoice};
+use crate::params::{InstrumentChoice, StruckParams, TemperamentChoice};
 use crate::standalone;
 use views::LiveView;
 
@@ -151,7 +152,7 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Instrument", |ui| {
         ui.horizontal_wrapped(|ui| {
             let current = params.instrument.kind.value();
-            for choice in Instrument::ALL {
+            for choice in InstrumentChoice::ALL {
                 let name = choice.kind().name();
                 if ui.selectable_label(current == choice, name).clicked() && current != choice {
                     setter.begin_set_parameter(&params.instrument.kind);
@@ -166,9 +167,11 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Hardest", &params.touch.max, setter);
         slider(ui, "Curve", &params.touch.shape, setter);
         let kind = params.kind();
-        let unit = views::touch_unit(kind);
-        let what = if unit == "mm" { "pluck height" } else { "exciter speed" };
-        ui.label(RichText::new(format!("velocity to {what}, {unit}")).small());
+        let what = match kind.touch_range() {
+            TouchRange::Speed { .. } => "exciter speed, m/s",
+            TouchRange::PluckHeight { .. } => "pluck height, mm",
+        };
+        ui.label(RichText::new(format!("velocity to {what}")).small());
         views::touch_curve(ui, &params.controls(), kind, Vec2::new(ui.available_width(), 96.0));
     });
     group(ui, "Hammer", |ui| {

@@ -315,17 +315,12 @@ pub fn spectrum_view(ui: &mut Ui, spectrum_db: &[f32], sample_rate_hz: f64, size
     painter.text(rect.right_bottom(), Align2::RIGHT_BOTTOM, "Hz", small(), AXIS_TEXT);
 }
 
-/// The touch a velocity gives: m/s for hammers, mallets and tangents; mm of pluck for a harpsichord.
-pub fn touch_unit(kind: InstrumentKind) -> &'static str {
-    if kind == InstrumentKind::Harpsichord { "mm" } else { "m/s" }
-}
-
 /// Velocity (1..127) against touch under the present controls.
 pub fn touch_curve(ui: &mut Ui, controls: &Controls, kind: InstrumentKind, size: Vec2) {
     let range: TouchRange = kind.touch_range();
     let (painter, rect) = plot_area(ui, size);
     let plot = Rect::from_min_max(rect.min + Vec2::new(30.0, 12.0), rect.max - Vec2::new(0.0, 12.0));
-    let top = range.max;
+    let top = range.bounds().1;
     let to_screen = |velocity: f64, touch: f64| {
         pos2(
             plot.left() + plot.width() * ((velocity - 1.0) / 126.0) as f32,
@@ -334,11 +329,11 @@ pub fn touch_curve(ui: &mut Ui, controls: &Controls, kind: InstrumentKind, size:
     };
     painter.line_segment([plot.left_bottom(), plot.right_bottom()], Stroke::new(1.0, GRID));
     painter.line_segment([plot.left_bottom(), plot.left_top()], Stroke::new(1.0, GRID));
-    let points: Vec<Pos2> = (1..=127).map(|v| to_screen(v as f64, controls.touch(range, v as f64 / 127.0))).collect();
+    let points: Vec<Pos2> = (1..=127).map(|v| to_screen(v as f64, controls.touch(range, v as f64 / 127.0).value())).collect();
     painter.add(Shape::line(points, Stroke::new(1.5, CURVE_COLOUR)));
-    let unit = touch_unit(kind);
-    let soft = controls.touch(range, 1.0 / 127.0);
-    let hard = controls.touch(range, 1.0);
+    let unit = range.max().unit();
+    let soft = controls.touch(range, 1.0 / 127.0).value();
+    let hard = controls.touch(range, 1.0).value();
     painter.text(plot.left_top(), Align2::RIGHT_CENTER, format!("{top:.1} "), small(), AXIS_TEXT);
     painter.text(plot.left_bottom(), Align2::RIGHT_CENTER, "0 ", small(), AXIS_TEXT);
     painter.text(

@@ -1,0 +1,105 @@
+//! A key's damper: the felt that lies on its strings while the key is up and
+//! the pedal is not, adding to every mode's decay rate as it settles.
+//!
+//! Its engagement runs from 0 (lifted) to 1 (fully on the strings) and moves at
+//! most one control block's share of the felt's travel time per block, so a
+//! release is a short slide rather than a click. A cimbalom's damper bar is
+//! worked by the pedal alone: its keys (the player's mallets) never lift it.
+
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+use crate::design::DamperDesign;
+
+/// The damper of one key (none for keys whose strings ring short anyway).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Damper {
+    design: Option<DamperDesign>,
+    /// Engagement now, and the engagement the strings' poles were last set for.
+    engaged: f64,
+    engaged_set: f64,
+}
+
+impl Damper {
+    pub fn new(design: Option<DamperDesign>) -> Self {
+        Self { design, engaged: 0.0, engaged_set: 0.0 }
+    }
+
+    /// A strike: the damper leaves the strings before the hammer arrives (unless
+    /// only the pedal works it).
+    pub fn lift_for_strike(&mut self) {
+        if !self.design.is_some_and(|d| d.pedal_only) {
+            self.engaged = 0.0;
+        }
+    }
+
+    /// One control block of `block_s`: move toward where the key (held, or kept
+    /// up by the sostenuto pedal) and the sustain pedal (0..=1 down) send it.
+    pub fn follow(&mut self, block_s: f64, key_up_held: bool, sustain: f64) {
+        let Some(d) = self.design else { return };
+        let target = match d {
+            d if d.pedal_only => (1.0 - sustain).clamp(0.0, 1.0),
+            _ if key_up_held => 0.0,
+            _ => (1.0 - sustain).clamp(0.0, 1.0),
+        };
+        let step = block_s / d.travel_s.max(block_s);
+        self.engaged += (target - self.engaged).clamp(-step, step);
+    }
+
+    /// Whether it has moved since the strings' poles were last set.
+    pub fn moved(&self) -> bool {
+        self.engaged != self.engaged_set
+    }
+
+    /// The decay it adds now, (rate 1/s, rate per Hz 1/s/Hz): every mode's
+    /// sigma grows by `rate + rate_per_hz * f`. Marks the poles as set for it.
+    pub fn extra_decay(&mut self) -> (f64, f64) {
+        self.engaged_set = self.engaged;
+        match self.design {
+            Some(d) => (d.rate_s * self.engaged, d.rate_per_hz_s * self.engaged),
+            None => (0.0, 0.0),
+        }
+    }
+
+    /// Carry over the engagement of the same key's damper in tables being replaced.
+    pub fn take_over(&mut self, old: &Damper) {
+        self.engaged = old.engaged;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FELT: DamperDesign = DamperDesign { rate_s: 10.0, rate_per_hz_s: 0.01, travel_s: 0.02, pedal_only: false };
+
+    #[test]
+    fn a_released_key_s_damper_settles_over_its_travel_and_the_pedal_holds_it_off() {
+        let mut d = Damper::new(Some(FELT));
+        d.lift_for_strike();
+        d.follow(0.005, false, 0.0);
+        assert!((d.extra_decay().0 - 2.5).abs() < 1e-12, "a quarter of the travel in a quarter of its time");
+        for _ in 0..10 {
+            d.follow(0.005, false, 0.0);
+        }
+        assert_eq!(d.extra_decay(), (10.0, 0.01));
+        assert!(!d.moved());
+        d.follow(0.005, true, 0.0);
+        assert!(d.moved(), "a held key lifts it");
+        let mut pedalled = Damper::new(Some(FELT));
+        for _ in 0..10 {
+            pedalled.follow(0.005, false, 1.0);
+        }
+        assert_eq!(pedalled.extra_decay(), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_pedal_only_damper_ignores_the_keys() {
+        let mut bar = Damper::new(Some(DamperDesign { pedal_only: true, ..FELT }));
+        for _ in 0..10 {
+            bar.follow(0.005, true, 0.0);
+        }
+        bar.lift_for_strike();
+        assert_eq!(bar.extra_decay().0, 10.0, "neither a held key nor a strike lifts a damper bar");
+        assert_eq!(Damper::new(None).extra_decay(), (0.0, 0.0));
+    }
+}

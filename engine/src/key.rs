@@ -6,6 +6,8 @@
 //! bridge, a fretted clavichord's string pair from two or three tangents): the
 //! key is then the course, and each of those MIDI keys is one of its notes.
 
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
 use std::ops::Range;
 
 use crate::body::{Bridge, BridgePoint};

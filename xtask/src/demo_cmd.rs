@@ -10,7 +10,7 @@ use anyhow::{Result, bail};
 
 use crate::steps::{self, Step};
 use crate::util::{relative, run, workspace_root};
-use crate::{Options, bundle, packages};
+use crate::{Options, bundle, footprint, packages};
 
 /// The demo songs' folder; a song's instrument is its file name up to the
 /// first '-' (`piano-*.mid`, `santoor-*.mid`, ...).
@@ -109,6 +109,7 @@ pub fn demo(options: &Options) -> Result<()> {
         Step::new("build", "cargo xtask bundle struck --release (the `struck` binary, and the plugin bundles)", || {
             bundle::bundle(true, false)
         }),
+
         Step::new(
             "seed",
             "the seed's lab: Euphonics 12.2's Sounds 1-12, figures and animations (`struck demo`)",
@@ -134,6 +135,9 @@ pub fn demo(options: &Options) -> Result<()> {
                     .args(["--instrument", &song.instrument]))?;
             }
             Ok(())
+        }),
+        Step::new("footprint", "each bundle under 15 MB, and the plugins free of the lab's crates", || {
+            footprint::check(true)
         }),
     ];
     let names: Vec<&str> = steps.iter().map(|s| s.name).collect();

@@ -4,6 +4,7 @@
 
 mod bundle;
 mod demo_cmd;
+mod footprint;
 mod packages;
 mod piano_scale;
 mod steps;

@@ -23,6 +23,7 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 
 use crate::bundle::{self, profile_args};
+use crate::footprint;
 use crate::packages;
 use crate::steps::{self, Selection, Step};
 use crate::util::{cargo, relative, run, target_dir, workspace_root};
@@ -58,9 +59,23 @@ pub fn steps(options: &TestOptions) -> Vec<Step<'_>> {
             packages::ensure(&needs, options.install)
         }),
         Step::new(
+            "lint",
+            "cargo clippy --workspace --all-targets -D warnings (the real-time rooms deny unwrap, expect and panic)",
+            lint,
+        ),
+        Step::new(
             "bundle",
             format!("cargo xtask bundle struck{} (the CLAP, VST3 and standalone in target/bundled)", flag(release)),
             move || bundle::bundle(release, true),
+        ),
+        Step::new(
+            "footprint",
+            if release {
+                "the plugins link none of the lab's crates, and each bundle is under 15 MB"
+            } else {
+                "the plugins link none of the lab's crates (sizes are checked on a release build and by the demo)"
+            },
+            move || footprint::check(release),
         ),
         Step::new(
             "cargo-test",
@@ -90,6 +105,11 @@ fn cargo_test(release: bool) -> Result<()> {
         .args(["test", "--workspace", "--no-fail-fast"])
         .args(profile_args(release))
         .env("STRUCK_REQUIRE_BUNDLE", "1"))
+}
+
+/// Clippy over everything, warnings as errors.
+fn lint() -> Result<()> {
+    run(Command::new(cargo()).args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))
 }
 
 fn flag(release: bool) -> &'static str {
@@ -184,7 +204,7 @@ mod tests {
     fn the_steps_build_before_they_test() {
         let options = TestOptions::default();
         let names: Vec<&str> = steps(&options).iter().map(|s| s.name).collect();
-        assert_eq!(names, ["packages", "bundle", "cargo-test", "pedalboard", "panel", "jack-session"]);
+        assert_eq!(names, ["packages", "lint", "bundle", "footprint", "cargo-test", "pedalboard", "panel", "jack-session"]);
     }
 
     #[test]
@@ -202,8 +222,11 @@ mod tests {
         let dev: Vec<String> = steps(&TestOptions::default()).iter().map(|s| s.what.clone()).collect();
         assert!(dev.iter().all(|w| !w.contains("--release")), "{dev:?}");
         let release = TestOptions { release: true, ..TestOptions::default() };
-        let release: Vec<String> = steps(&release).iter().map(|s| s.what.clone()).collect();
-        assert!(release[1].contains("bundle struck --release") && release[2].contains("--no-fail-fast --release"));
+        let release = steps(&release);
+        let what = |name: &str| release.iter().find(|s| s.name == name).map(|s| s.what.clone()).unwrap_or_default();
+        assert!(what("bundle").contains("bundle struck --release"), "{}", what("bundle"));
+        assert!(what("cargo-test").contains("--no-fail-fast --release"), "{}", what("cargo-test"));
+        assert!(what("footprint").contains("15 MB"), "{}", what("footprint"));
     }
 
     #[test]

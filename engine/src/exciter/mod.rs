@@ -52,6 +52,9 @@ impl ContactObserver for () {
 }
 
 /// A string's exciter: its tables at its point, and its stroke while one is in play.
+// One per string, built with it: boxing the hammer's rig would cost a pointer
+// chase every sample for memory that is not scarce.
+#[allow(clippy::large_enum_variant)]
 pub enum Exciter {
     /// None set up yet.
     None,

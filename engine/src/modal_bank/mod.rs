@@ -34,6 +34,8 @@
 //! Both add in the same order, so a string with an idle exciter gives the same
 //! bits as a free one.
 
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
 use multiversion::multiversion;
 use num_complex::Complex64;
 
@@ -575,27 +577,25 @@ fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], 
     let (pr, pi) = (&pr[whole..], &pi[whole..]);
     match re_rest.len() {
         0 => {}
-        1 => free_chain::<1>(
-            re_rest.try_into().expect("1 group"),
-            im_rest.try_into().expect("1 group"),
-            pr.try_into().expect("1 group"),
-            pi.try_into().expect("1 group"),
-            acc,
-        ),
-        2 => free_chain::<2>(
-            re_rest.try_into().expect("2 groups"),
-            im_rest.try_into().expect("2 groups"),
-            pr.try_into().expect("2 groups"),
-            pi.try_into().expect("2 groups"),
-            acc,
-        ),
-        _ => free_chain::<3>(
-            re_rest.try_into().expect("3 groups"),
-            im_rest.try_into().expect("3 groups"),
-            pr.try_into().expect("3 groups"),
-            pi.try_into().expect("3 groups"),
-            acc,
-        ),
+        1 => free_rest::<1>(re_rest, im_rest, pr, pi, acc),
+        2 => free_rest::<2>(re_rest, im_rest, pr, pi, acc),
+        _ => free_rest::<3>(re_rest, im_rest, pr, pi, acc),
+    }
+}
+
+/// The last `G` groups of modes (fewer than a chain) over a block.
+#[inline(always)]
+fn free_rest<const G: usize>(
+    re: &mut [[f64; LANES]],
+    im: &mut [[f64; LANES]],
+    pr: &[[f64; LANES]],
+    pi: &[[f64; LANES]],
+    acc: &mut [[f64; LANES]],
+) {
+    if let (Some(zr), Some(zi), Some(pr), Some(pi)) =
+        (re.first_chunk_mut::<G>(), im.first_chunk_mut::<G>(), pr.first_chunk::<G>(), pi.first_chunk::<G>())
+    {
+        free_chain::<G>(zr, zi, pr, pi, acc);
     }
 }
 

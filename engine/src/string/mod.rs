@@ -14,6 +14,8 @@
 //! Everything here is computed once, when a note is set up; nothing here runs
 //! on the audio thread.
 
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
 pub mod damping;
 pub mod residual;
 
@@ -145,20 +147,20 @@ impl StringSpec {
             }
         };
         // The bending stiffness, when it is given as material and diameter,
-        // is fixed whatever the tension: EI = E pi d^4 / 64.
+        // is fixed whatever the tension: EI = E pi d^4 / 64 (0 when it is not).
         let material_ei = match self.stiffness {
-            Stiffness::YoungsModulus { modulus_pa, bending_diameter_m } => Some(
+            Stiffness::YoungsModulus { modulus_pa, bending_diameter_m } => {
                 positive(modulus_pa, "Young's modulus")? * PI * positive(bending_diameter_m, "diameter")?.powi(4)
-                    / 64.0,
-            ),
-            _ => None,
+                    / 64.0
+            }
+            _ => 0.0,
         };
         let tension_n = match (self.tuning, self.stiffness) {
             (Tuning::TensionN(t), _) => positive(t, "tension")?,
             // f_1^2 = (T + EI pi^2 / L^2) / (4 L^2 mu) for the stiff pinned string.
             (Tuning::FirstPartialHz(f1), Stiffness::YoungsModulus { .. }) => {
                 let f1 = positive(f1, "first-partial frequency")?;
-                let ei = material_ei.expect("set for Young's modulus");
+                let ei = material_ei;
                 let t = 4.0 * length_m * length_m * mu * f1 * f1 - ei * PI * PI / (length_m * length_m);
                 if !(t > 0.0) {
                     return Err(StringError::TooStiffToTune { f1_hz: f1 });
@@ -182,7 +184,7 @@ impl StringSpec {
                 }
                 b * tension_n * length_m * length_m / (PI * PI)
             }
-            Stiffness::YoungsModulus { .. } => material_ei.expect("set for Young's modulus"),
+            Stiffness::YoungsModulus { .. } => material_ei,
         };
         let inharmonicity = PI * PI * ei / (tension_n * length_m * length_m);
         let f0_hz = (tension_n / mu).sqrt() / (2.0 * length_m);

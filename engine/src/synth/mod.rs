@@ -11,6 +11,8 @@
 //! bends retune, silent keys stop and the live view is fed. The split points
 //! depend only on the events' times, so any host block size gives the same samples.
 
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
 pub mod event;
 pub mod scope;
 mod workshop;
@@ -517,8 +519,7 @@ impl Synth {
                 }
             }
         }
-        if self.outgoing.as_ref().is_some_and(|o| o.active_keys().next().is_none()) {
-            let old = self.outgoing.take().expect("checked above");
+        if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none()) {
             self.retire(old);
         }
         if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {

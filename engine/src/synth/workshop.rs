@@ -83,8 +83,11 @@ impl Workshop {
                     last = wanted;
                 }
             })
-            .expect("spawning the workshop thread");
-        (Self { stop, thread: Some(thread) }, Delivery { incoming, outgoing })
+            // Without the thread the instrument first built keeps playing; changes
+            // that need new tables are not heard.
+            .map_err(|e| eprintln!("struck: cannot start the thread that rebuilds the instrument: {e}"))
+            .ok();
+        (Self { stop, thread }, Delivery { incoming, outgoing })
     }
 }
 

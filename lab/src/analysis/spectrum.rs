@@ -129,7 +129,7 @@ pub fn spectral_centroid_padded_hz(signal: &[f64], sample_rate_hz: f64, length: 
     let spectrum = magnitude_spectrum(&padded, None);
     let bin_hz = sample_rate_hz / padded.len() as f64;
     let total: f64 = spectrum.iter().sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return None;
     }
     Some(spectrum.iter().enumerate().map(|(k, m)| k as f64 * bin_hz * m).sum::<f64>() / total)

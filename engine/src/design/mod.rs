@@ -2,7 +2,7 @@
 //! dulcimer, cimbalom, clavichord or harpsichord is made of, as plain physical
 //! descriptions ([`KeyDesign`]).
 //!
-//! Nothing here runs on the audio thread. [`design`] answers "what strings and
+//! Nothing here runs on the audio thread. [`key_design`] answers "what strings and
 //! what exciter does key k have, given the player's voicing"; the real-time layer
 //! ([`crate::synth`]) turns every key's design into precomputed tables once, off
 //! the audio thread.

@@ -19,7 +19,7 @@
 //! below its lower neighbour's stretch). The stretch never turns back: it only
 //! rises from bass to treble. A key the instrument lacks takes a B interpolated
 //! between its neighbours' (beyond the ends: the nearest key's).
-//! [`TuningSettings::stretch`] scales all of it: 0 none, 1 the whole. The
+//! [`super::TuningSettings::stretch`] scales all of it: 0 none, 1 the whole. The
 //! reference key keeps its frequency: A4, or a keyboard mapping's reference key.
 //!
 

@@ -11,10 +11,10 @@
 //!   other eight pure;
 //! - Vallotti: the six fifths F-C-G-D-A-E-B narrowed by PC / 6, the other six pure.
 //!
-//! The pattern is laid from [`TuningSettings::root`]: with root D, what the
+//! The pattern is laid from [`super::TuningSettings::root`]: with root D, what the
 //! temperament does on C it does on D (meantone's wolf then falls on A#-F).
 //! The whole keyboard is then moved by one amount so that A4 sounds at
-//! [`TuningSettings::a4_hz`]: a key of pitch class p sits
+//! [`super::TuningSettings::a4_hz`]: a key of pitch class p sits
 //! `dev(p) - dev(A)` cents from its equal-tempered frequency, where dev is a
 //! pitch class's deviation from equal temperament in the pattern as laid.
 //!
@@ -39,7 +39,7 @@ pub enum Temperament {
     Werckmeister3,
     /// Vallotti.
     Vallotti,
-    /// A Scala scale ([`TuningSettings::scale`]).
+    /// A Scala scale ([`super::TuningSettings::scale`]).
     Scala,
 }
 

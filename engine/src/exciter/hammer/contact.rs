@@ -112,14 +112,14 @@ impl ContactLaw {
     /// without one the solve starts from a Newton step at `start`.
     ///
     /// With a guess, the power is taken once, at the guessed compression, and
-    /// the felt near it follows from a binomial series ([`Series`]). That power
+    /// the felt near it follows from a binomial series (`Series`). That power
     /// does not wait on `c_hat`, so a caller that works out `c_hat` meanwhile
     /// (a pass over the modes) hides it.
     ///
     /// Newton's method on g, which is increasing and convex, lands at or above the
     /// root from any start and then descends to it monotonically; so the lower end
     /// of the bracket (one more power) is only worked out if rounding ever sends
-    /// an iterate outside. Once a Newton step is below [`ACCEPT`] of the
+    /// an iterate outside. Once a Newton step is below `ACCEPT` of the
     /// compression, the error after it is about 1e-14 (quadratic convergence), so
     /// it is taken without evaluating the felt again: the force and the felt's
     /// state move along their slopes, which keeps C1 = C_hat - W F exact and
@@ -253,7 +253,7 @@ impl ContactLaw {
     }
 }
 
-/// Terms of [`Series`] after the first.
+/// Terms of `Series` after the first.
 pub const SERIES_TERMS: usize = 8;
 /// How far from its anchor [`Series`] is used, as a fraction of the anchor: the
 /// first term left out is below 32^-9 = 3e-14 (times a binomial coefficient,

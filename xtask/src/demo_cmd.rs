@@ -136,7 +136,7 @@ pub fn demo(options: &Options) -> Result<()> {
             }
             Ok(())
         }),
-        Step::new("footprint", "each bundle under 15 MB, and the plugins free of the lab's crates", || {
+        Step::new("footprint", "each bundle under 15 MB", || {
             footprint::check(true)
         }),
     ];

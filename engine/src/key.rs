@@ -22,7 +22,7 @@ use crate::modal_bank::{LANES, lane_sum};
 use crate::string::StringError;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
-use crate::synth::CONTROL_BLOCK;
+use crate::CONTROL_BLOCK;
 
 /// Time constant of a tangent falling back from the strings when the key comes up, s.
 const TANGENT_LIFT_S: f64 = 0.002;

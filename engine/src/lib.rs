@@ -52,6 +52,10 @@
 // Checks are written `!(x > 0.0)` on purpose: a NaN must fail them.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+/// Samples between control updates: a key's damper, pitch and culling move once
+/// a block, and the keys drive the bridge in stretches of at most one.
+pub const CONTROL_BLOCK: usize = 64;
+
 pub mod body;
 pub(crate) mod damper;
 pub mod design;

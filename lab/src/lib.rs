@@ -23,7 +23,6 @@ pub mod cli;
 pub mod demo_page;
 pub mod figures;
 pub mod midi_file;
-pub mod output;
 pub mod perf;
 pub mod plot;
 pub mod seed_sounds;

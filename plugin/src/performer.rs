@@ -473,11 +473,16 @@ mod tests {
     #[cfg(debug_assertions)]
     fn the_allocation_checker_is_live_in_debug_builds() {
         let exe = std::env::current_exe().unwrap();
+        // A test's name is its path without the crate's.
+        let here = module_path!().split_once("::").map_or("", |(_, path)| path);
         let out = std::process::Command::new(exe)
-            .args(["--exact", "tests::allocating_child", "--ignored", "--nocapture", "--test-threads=1"])
+            .args(["--exact", &format!("{here}::allocating_child"), "--ignored", "--nocapture", "--test-threads=1"])
             .env("STRUCK_ALLOCATING_CHILD", "1")
             .output()
             .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        // The child must have found the test (a renamed module once made it run none, and pass).
+        assert!(stdout.contains("running 1 test"), "the child ran no test: {stdout}");
         assert!(!out.status.success(), "an allocation under the checker did not abort");
     }
 

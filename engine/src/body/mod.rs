@@ -10,7 +10,7 @@
 
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-use crate::synth::CONTROL_BLOCK;
+use crate::CONTROL_BLOCK;
 
 /// Where a key's strings bear on the bridge, as the output hears it: a
 /// constant-power pan (0 dB at the centre in each channel's sum).

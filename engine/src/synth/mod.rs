@@ -31,8 +31,7 @@ use crate::string::Tuning;
 use crate::tuning::TuningSettings;
 use scope::ScopeWriter;
 
-/// Samples between control updates.
-pub const CONTROL_BLOCK: usize = 64;
+pub use crate::CONTROL_BLOCK;
 /// A key whose output can no longer exceed this (-120 dBFS) stops computing.
 pub const SILENCE: f64 = 1e-6;
 /// A stolen key fades out over this long, s.

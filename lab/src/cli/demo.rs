@@ -15,7 +15,7 @@ use crate::cli::animate::{self, FilmOptions};
 use crate::demo_page::{self, Entry};
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
-use crate::output::Staged;
+use super::output::Staged;
 use crate::seed_sounds::{self, SOUND_RATE_HZ};
 
 /// Grid side of the hammer charts in a full demo and in a quick one.

@@ -13,14 +13,14 @@ pub mod demo;
 pub mod render;
 pub mod strike;
 
+mod failure;
+pub mod output;
+
+pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure};
+
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-/// Exit status for input that Struck refuses (a malformed case, a bad argument).
-pub const EXIT_BAD_INPUT: u8 = 2;
-/// Exit status when the work could not be done (e.g. the output cannot be written).
-pub const EXIT_FAILURE: u8 = 1;
 
 #[derive(Parser)]
 #[command(
@@ -105,23 +105,6 @@ enum Command {
                             with captions and audio players in the seed's order. Offline, no \
                             sound card; --quick uses coarser hammer charts.")]
     Demo(demo::DemoArgs),
-}
-
-/// A failure with the exit status it deserves; printed as one line.
-#[derive(Debug)]
-pub struct Failure {
-    pub status: u8,
-    pub message: String,
-}
-
-impl Failure {
-    pub fn bad_input(message: impl Into<String>) -> Self {
-        Self { status: EXIT_BAD_INPUT, message: message.into() }
-    }
-
-    pub fn failed(message: impl Into<String>) -> Self {
-        Self { status: EXIT_FAILURE, message: message.into() }
-    }
 }
 
 /// The clap description of every subcommand (the standalone reads the rest of the command line).

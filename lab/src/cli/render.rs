@@ -27,7 +27,7 @@ use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperamen
 
 use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
-use crate::output::Staged;
+use super::output::Staged;
 
 /// Sample rates rendered, Hz.
 pub const SAMPLE_RATES_HZ: std::ops::RangeInclusive<u32> = 22_050..=192_000;

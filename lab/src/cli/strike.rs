@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use crate::strike::{self, LabRun};
 
 use crate::cli::Failure;
-use crate::output::{Staged, csv_field};
+use super::output::{Staged, csv_field};
 
 #[derive(clap::Args)]
 pub struct StrikeArgs {

@@ -6,7 +6,7 @@ use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::cli::Failure;
+use super::failure::Failure;
 
 /// Files written to temporary names, waiting to be put in place together.
 #[derive(Default)]

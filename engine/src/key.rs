@@ -10,6 +10,7 @@
 
 use std::ops::Range;
 
+use crate::body::soundboard::ZoneShare;
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};
@@ -80,6 +81,9 @@ pub(crate) struct Key {
     gain_per_n: f64,
     /// Where its strings bear on the bridge.
     bridge_point: BridgePoint,
+    /// How much louder the body hears it than the bridge-force output does (its
+    /// ringing gain over the gain the bridge force's peak allows).
+    body_boost: f64,
     // What the player is doing with it.
     /// Sounding (struck and not yet silent or faded out).
     active: bool,
@@ -168,6 +172,7 @@ impl Key {
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
             bridge_point: BridgePoint::panned(design.pan),
+            body_boost: if design.gain_per_n > 0.0 { (design.ring_gain_per_n / design.gain_per_n).max(1.0) } else { 1.0 },
             active: false,
             held: 0,
             sounded: 0,
@@ -192,6 +197,40 @@ impl Key {
     /// Whether it is sounding: struck, and neither silent yet nor faded out.
     pub fn is_sounding(&self) -> bool {
         self.active
+    }
+
+    /// How much louder the body should hear it than the bridge-force output
+    /// does, before the body's own colour is taken out (its ringing gain over
+    /// the gain the bridge force's peak allows).
+    pub fn body_boost(&self) -> f64 {
+        self.body_boost
+    }
+
+    /// Bear on the body's zones as `share` says, `voicing` times louder there
+    /// than at its bridge-force gain.
+    pub fn bear_on(&mut self, share: ZoneShare, voicing: f64) {
+        let weights = share.weights.map(|w| w * voicing);
+        self.bridge_point = self.bridge_point.on_zones(ZoneShare { weights, ..share });
+    }
+
+    /// Play its first note at `touch` alone for `force.len()` samples, writing
+    /// the force it hands the bridge (at its output gain), and return what its
+    /// strings then ring with, mode by mode: (amplitude at output gain, decay
+    /// rate 1/s, frequency Hz). The key is left silent. Allocates; for voicing
+    /// the key through the body when the instrument is built.
+    pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<(f64, f64, f64)> {
+        self.press(0, touch, false, 1.0, 1.0);
+        for chunk in force.chunks_mut(CONTROL_BLOCK) {
+            chunk.fill(0.0);
+            self.render(chunk, None);
+        }
+        force.iter_mut().for_each(|f| *f *= self.gain_per_n);
+        let gain = self.gain_per_n;
+        let partials =
+            self.strings.iter().flat_map(|s| s.bank().bridge_partials()).map(|(a, sigma, f)| (a * gain, sigma, f)).collect();
+        self.silence();
+        self.sounded = 0;
+        partials
     }
 
     /// Whether it is fading out (stolen, reset, or its instrument replaced).

@@ -27,6 +27,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::body::soundboard::MicPlacement;
 use crate::design::{InstrumentKind, Voicing};
 use crate::synth::{Controls, InstrumentSettings};
 use crate::tuning::{FieldError, TuningSettings};
@@ -50,6 +51,9 @@ pub struct Preset {
     /// Touch, polyphony, output gain, bend range, Bebung.
     pub controls: Controls,
     pub tuning: TuningSettings,
+    /// Where the body's microphones listen from.
+    #[serde(default)]
+    pub mics: MicPlacement,
 }
 
 /// Why a preset was refused, or could not be read or written; one line.
@@ -143,6 +147,7 @@ impl Preset {
         within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
         within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
         within("controls.bebung", c.bebung, 0.0, 1.0, "")?;
+        within("mics.width", self.mics.width, 0.0, 1.0, "")?;
         if !(1..=128).contains(&c.polyphony) {
             return Err(field("controls.polyphony", format!("must be from 1 to 128 keys (got {})", c.polyphony)));
         }
@@ -156,6 +161,7 @@ impl Preset {
             voicing: self.voicing,
             sample_rate_hz,
             tuning: self.tuning.clone(),
+            mics: self.mics,
         }
     }
 }

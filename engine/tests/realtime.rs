@@ -51,6 +51,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
         voicing: Voicing::default(),
         sample_rate_hz: fs,
         tuning: Default::default(),
+        mics: Default::default(),
     };
     let (mut synth, _scope) = Synth::new(Box::new(Instrument::build(&first).unwrap()));
     // What the "host" wants built: changed from the audio loop below, read by the workshop.
@@ -65,7 +66,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             fretted: code / kinds / 3 % 2 == 1,
             ..Voicing::default()
         };
-        Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs, tuning: Default::default() })
+        Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs, tuning: Default::default(), mics: Default::default() })
     });
 
     let mut rng = Rng::new(0x5eed_1234_abcd);

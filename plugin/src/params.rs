@@ -10,6 +10,8 @@
 use std::sync::RwLock;
 
 use nice_plug::prelude::*;
+use struck_engine::body::Output;
+use struck_engine::body::soundboard::{MicPlacement, Perspective};
 use struck_engine::design::{InstrumentKind, Voicing};
 use struck_engine::synth::{Controls, InstrumentSettings};
 use struck_engine::tuning::{A4_RANGE_HZ, ScalaScale, Temperament, TuningSettings, pitch_class_name};
@@ -210,6 +212,78 @@ pub struct OutputParams {
     /// Output level, dB (the engine glides to it, so no smoother here).
     #[id = "gain"]
     pub level_db: FloatParam,
+    /// What is heard: the body's microphones or the bridge force.
+    #[id = "outp"]
+    pub source: EnumParam<OutputChoice>,
+    /// Where the microphones listen from.
+    #[id = "mic"]
+    pub perspective: EnumParam<PerspectiveChoice>,
+    /// The pair's stereo width, 0..1 of the perspective's own spacing.
+    #[id = "wdth"]
+    pub width: FloatParam,
+}
+
+/// The microphones' perspective as a host parameter (ids are permanent).
+#[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PerspectiveChoice {
+    #[id = "close"]
+    #[name = "Close"]
+    Close,
+    #[id = "player"]
+    #[name = "Player"]
+    Player,
+    #[id = "lid"]
+    #[name = "Lid"]
+    Lid,
+}
+
+impl PerspectiveChoice {
+    pub const ALL: [PerspectiveChoice; 3] = [PerspectiveChoice::Close, PerspectiveChoice::Player, PerspectiveChoice::Lid];
+
+    pub fn perspective(self) -> Perspective {
+        match self {
+            PerspectiveChoice::Close => Perspective::Close,
+            PerspectiveChoice::Player => Perspective::Player,
+            PerspectiveChoice::Lid => Perspective::Lid,
+        }
+    }
+
+    pub fn of(perspective: Perspective) -> Self {
+        match perspective {
+            Perspective::Close => PerspectiveChoice::Close,
+            Perspective::Player => PerspectiveChoice::Player,
+            Perspective::Lid => PerspectiveChoice::Lid,
+        }
+    }
+}
+
+/// The output choice as a host parameter (ids are permanent).
+#[derive(Enum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputChoice {
+    /// The body, through a pair of microphones over the board.
+    #[id = "mics"]
+    #[name = "Microphones"]
+    Microphones,
+    /// The seed's surrogate: the strings' force on a rigid bridge.
+    #[id = "bridge"]
+    #[name = "Bridge force"]
+    BridgeForce,
+}
+
+impl OutputChoice {
+    pub fn output(self) -> Output {
+        match self {
+            OutputChoice::Microphones => Output::Microphones,
+            OutputChoice::BridgeForce => Output::BridgeForce,
+        }
+    }
+
+    pub fn of(output: Output) -> Self {
+        match output {
+            Output::Microphones => OutputChoice::Microphones,
+            Output::BridgeForce => OutputChoice::BridgeForce,
+        }
+    }
 }
 
 /// Skew that puts `center` at the middle of `min..=max`'s travel.
@@ -292,6 +366,9 @@ impl Default for StruckParams {
                     .with_unit(" dB")
                     .with_step_size(0.1)
                     .with_value_to_string(formatters::v2s_f32_rounded(1)),
+                source: EnumParam::new("Output", OutputChoice::Microphones),
+                perspective: EnumParam::new("Microphones", PerspectiveChoice::Close),
+                width: percent_param("Stereo width", 1.0),
             },
             state_version: RwLock::new(STATE_VERSION),
             scala: RwLock::new(None),
@@ -321,7 +398,21 @@ impl StruckParams {
 
     /// What the instrument's tables are built from, at `sample_rate_hz`.
     pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
-        InstrumentSettings { kind: self.kind(), voicing: self.voicing(), sample_rate_hz, tuning: self.tuning() }
+        InstrumentSettings {
+            kind: self.kind(),
+            voicing: self.voicing(),
+            sample_rate_hz,
+            tuning: self.tuning(),
+            mics: self.mics(),
+        }
+    }
+
+    /// Where the body's microphones listen from.
+    pub fn mics(&self) -> MicPlacement {
+        MicPlacement {
+            perspective: self.output.perspective.value().perspective(),
+            width: self.output.width.value() as f64,
+        }
     }
 
     /// The tuning. Reads a lock (the Scala scale): not for the audio thread.
@@ -351,6 +442,7 @@ impl StruckParams {
             output_gain: 10f64.powf(self.output.level_db.value() as f64 / 20.0),
             bend_range_semitones: self.output.bend_range.value() as f64,
             bebung: self.tangent.bebung.value() as f64,
+            output: self.output.source.value().output(),
         }
     }
 }
@@ -380,7 +472,7 @@ mod tests {
         let expected =
             ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
                 .into_iter()
-                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain"])
+                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth"])
                 .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();

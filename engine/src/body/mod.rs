@@ -1,43 +1,76 @@
-//! Where the strings' force goes: the bridge, and what it drives.
+//! Where the strings' force goes: the bridge, and the body it drives.
 //!
-//! Today the bridge is rigid and resistive, and the body is the seed's
-//! surrogate: a key's bridge force (scaled to full scale by its gain) is the
-//! sound, placed in the stereo field by where the key sits on the keyboard. A
-//! key hands its force to the [`Bridge`] at its [`BridgePoint`], never to the
-//! mix, so the instrument's body joins here: a point becomes the body's mode
-//! shapes at the string's end, and the bridge the modes radiating to two
-//! microphones.
+//! Every instrument has a body computed from its dimensions and materials
+//! ([`boards`]: the board as an orthotropic ribbed plate, [`plate`], with the
+//! air mode of a box): its modes, their loss, and their shapes at every key's
+//! bridge point. A key hands its force to the [`Bridge`] at its [`BridgePoint`];
+//! the bridge sums it into the zones its bridges are cut into, and the
+//! [`soundboard::Soundboard`] runs the body's modes under those forces and
+//! radiates them ([`radiation`]) to a pair of microphones. The seed's
+//! surrogate, the bridge force itself panned by where the key sits, stays as an
+//! output of its own ([`Output::BridgeForce`]).
 
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-use crate::CONTROL_BLOCK;
+pub mod boards;
+pub mod plate;
+pub mod radiation;
+pub mod soundboard;
 
-/// Where a key's strings bear on the bridge, as the output hears it: a
-/// constant-power pan (0 dB at the centre in each channel's sum).
+use crate::CONTROL_BLOCK;
+use soundboard::{MAX_ZONES, ZoneShare};
+
+/// What the output is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Output {
+    /// The body's modes as a pair of microphones over the board hears them.
+    #[default]
+    Microphones,
+    /// The seed's surrogate: every key's bridge force, panned by its place on the
+    /// keyboard (a rigid, purely resistive bridge).
+    BridgeForce,
+}
+
+/// Where a key's strings bear on the bridge: between two of the body's zones,
+/// and, for the bridge-force output, a constant-power pan (0 dB at the centre
+/// in each channel's sum).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BridgePoint {
     left: f64,
     right: f64,
+    zones: ZoneShare,
 }
 
 impl BridgePoint {
-    /// A point heard at `pan`, -1 (left) ..= 1 (right).
+    /// A point heard at `pan`, -1 (left) ..= 1 (right), on no zone.
     pub fn panned(pan: f64) -> Self {
         let angle = (pan.clamp(-1.0, 1.0) + 1.0) * std::f64::consts::FRAC_PI_4;
-        Self { left: angle.cos() * std::f64::consts::SQRT_2, right: angle.sin() * std::f64::consts::SQRT_2 }
+        Self {
+            left: angle.cos() * std::f64::consts::SQRT_2,
+            right: angle.sin() * std::f64::consts::SQRT_2,
+            zones: ZoneShare { zones: [0, 0], weights: [0.0, 0.0] },
+        }
+    }
+
+    /// The same point bearing on the body's zones as `share` says.
+    pub fn on_zones(self, share: ZoneShare) -> Self {
+        let zones = ZoneShare { zones: share.zones.map(|z| z.min(MAX_ZONES - 1)), weights: share.weights };
+        Self { zones, ..self }
     }
 }
 
 /// What every sounding key drives during one stretch of at most a control
-/// block, and what comes out of it, left and right. Real-time safe.
+/// block: the force on each of the body's zones, and the panned bridge force.
+/// Real-time safe.
 pub struct Bridge {
     out: [[f64; CONTROL_BLOCK]; 2],
+    zones: [[f64; CONTROL_BLOCK]; MAX_ZONES],
     len: usize,
 }
 
 impl Default for Bridge {
     fn default() -> Self {
-        Self { out: [[0.0; CONTROL_BLOCK]; 2], len: 0 }
+        Self { out: [[0.0; CONTROL_BLOCK]; 2], zones: [[0.0; CONTROL_BLOCK]; MAX_ZONES], len: 0 }
     }
 }
 
@@ -45,9 +78,19 @@ impl Bridge {
     /// Begin a stretch of `len` samples (at most a control block) with nothing driving.
     pub fn start(&mut self, len: usize) {
         self.len = len.min(CONTROL_BLOCK);
-        for channel in &mut self.out {
+        for channel in self.out.iter_mut().chain(self.zones.iter_mut()) {
             channel[..self.len].fill(0.0);
         }
+    }
+
+    /// The stretch's length.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the stretch is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
     }
 
     /// A key pushes with `force` (already at its output gain) at `at`, for the
@@ -58,10 +101,22 @@ impl Bridge {
             *l += f * at.left;
             *r += f * at.right;
         }
+        for (zone, weight) in at.zones.zones.into_iter().zip(at.zones.weights) {
+            if weight != 0.0 {
+                for (z, f) in self.zones[zone][..self.len].iter_mut().zip(force) {
+                    *z += f * weight;
+                }
+            }
+        }
     }
 
-    /// The stretch's sound, left and right.
-    pub fn radiated(&self) -> (&[f64], &[f64]) {
+    /// The stretch's force on each zone.
+    pub fn zone_forces(&self) -> &[[f64; CONTROL_BLOCK]; MAX_ZONES] {
+        &self.zones
+    }
+
+    /// The stretch's bridge force, panned, left and right.
+    pub fn panned(&self) -> (&[f64], &[f64]) {
         let [left, right] = &self.out;
         (&left[..self.len], &right[..self.len])
     }
@@ -76,15 +131,27 @@ mod tests {
         let mut bridge = Bridge::default();
         bridge.start(4);
         bridge.drive(BridgePoint::panned(0.0), &[1.0, 2.0, 0.0, -1.0]);
-        let (l, r) = bridge.radiated();
+        let (l, r) = bridge.panned();
         assert!(l.iter().zip(r).all(|(l, r)| (l - r).abs() < 1e-12), "{l:?} {r:?}");
         assert!((l[1] - 2.0).abs() < 1e-12, "{l:?}");
         bridge.start(2);
         bridge.drive(BridgePoint::panned(-1.0), &[1.0, 1.0]);
         bridge.drive(BridgePoint::panned(1.0), &[0.5, 0.5]);
-        let (l, r) = bridge.radiated();
+        let (l, r) = bridge.panned();
         assert!((l[0] - std::f64::consts::SQRT_2).abs() < 1e-12, "{l:?}");
         assert!((r[0] - 0.5 * std::f64::consts::SQRT_2).abs() < 1e-12, "{r:?}");
         assert_eq!(l.len(), 2);
+    }
+
+    #[test]
+    fn a_key_between_two_zones_shares_its_force_between_them() {
+        let mut bridge = Bridge::default();
+        bridge.start(3);
+        let point = BridgePoint::panned(0.0).on_zones(ZoneShare { zones: [2, 3], weights: [0.25, 0.75] });
+        bridge.drive(point, &[4.0, 0.0, -8.0]);
+        let zones = bridge.zone_forces();
+        assert_eq!(&zones[2][..3], &[1.0, 0.0, -2.0]);
+        assert_eq!(&zones[3][..3], &[3.0, 0.0, -6.0]);
+        assert!(zones[0][..3].iter().all(|&f| f == 0.0));
     }
 }

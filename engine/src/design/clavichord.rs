@@ -248,6 +248,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         exciter: ExciterDesign::Tangent { displacement_m, stretch_per_m2: stretch },
         damper: Some(damper(damped_60_db_s, DAMPER_RATE_PER_HZ_S, f1_hz, DAMPER_TRAVEL_S)),
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
+        ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n),
         pan: pan(midi_key, KEYS),
     }
 }

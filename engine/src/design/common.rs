@@ -235,6 +235,18 @@ impl Level {
         self.ringing_gain(midi_key).min(self.ceiling_gain(midi_key, pan)) / peak_n
     }
 
+    /// The gain that puts the key's ringing at the target, with no ceiling: the
+    /// microphones hear the body, whose radiation of the hammer's push on the
+    /// bridge, not the push itself, sets their peak.
+    pub(super) fn ring_gain_per_n(&self, midi_key: u8, peak_n: f64) -> f64 {
+        self.ringing_gain(midi_key) / peak_n
+    }
+
+    /// [`Self::ring_gain_per_n`] for a course played from several keys.
+    pub(super) fn course_ring_gain_per_n(&self, keys: &[u8], peak_n: f64) -> f64 {
+        self.course_ringing_gain(keys) / peak_n
+    }
+
     /// The output gain of a course played from several keys (`keys`: a divided
     /// course's two sides), panned at `pan`: the geometric mean of the gains that
     /// would put each key's ringing at the target (each then misses it by half
@@ -492,6 +504,8 @@ mod tests {
             let target = level.ring_target_dbfs;
             let instrument = Instrument::build(&default_settings(kind, SAMPLE_RATE_HZ)).unwrap();
             let (mut synth, _) = Synth::new(Box::new(instrument));
+            // The level scale is the bridge-force output's (the body's microphones are voiced from it).
+            synth.set_controls(crate::synth::Controls { output: crate::body::Output::BridgeForce, ..Default::default() });
             let range = kind.key_range();
             let mut keys: Vec<u8> = range.clone().step_by(3).chain([*range.end()]).collect();
             keys.dedup();

@@ -292,6 +292,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         bridge_coupling_s_kg,
         damper: None,
         gain_per_n: LEVEL.course_gain_per_n(&played, peak_n, pan),
+        ring_gain_per_n: LEVEL.course_ring_gain_per_n(&played, peak_n),
         pan,
     })
 }

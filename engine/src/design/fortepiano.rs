@@ -118,6 +118,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         // 60 dB in 0.35 s at F1 shortening to 0.12 s at G6: light, quick dampers.
         damper: Some(damper(0.35 * (0.12f64 / 0.35).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.012)),
         gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
+        ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S)),
         pan: pan(midi_key, KEYS),
     }
 }

@@ -295,6 +295,9 @@ pub struct KeyDesign {
     pub damper: Option<DamperDesign>,
     /// Output gain from bridge force (N) to a full-scale sample.
     pub gain_per_n: f64,
+    /// The same without the cap the bridge-force output's peak needs (see
+    /// `Level`): the gain the body's microphones hear the key through.
+    pub ring_gain_per_n: f64,
     /// Stereo position, -1 (left) to 1 (right).
     pub pan: f64,
 }

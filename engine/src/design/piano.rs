@@ -55,7 +55,11 @@ const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_
 /// sets the peak while less and less of its energy is left ringing. From D5 up the
 /// peak ceiling caps the gain and the ringing falls short of the target: -29.1
 /// dBFS at E5, -30.8 at G5, -34.7 at C6, -53.7 at C7, -58 to -76 above (the fit
-/// is then rough, 13 dB off at E7, but the cap decides). Measured on every key
+/// would then be rough, but the cap decides). The body's microphones hear the
+/// keys without the cap (the body, not the hammer's push on the bridge, sets
+/// their peak), so from C6 up every key is an anchor of its own, measured at
+/// the ringing gain (the top octave's ringing is uneven from key to key: B7
+/// rings 12 dB under its neighbours). Measured on every key
 /// with the scale of engine/data/piano-scale.csv: the fit holds the ringing of
 /// every uncapped key within 0.3 dB, and the peak excess lies 0 to 0.2 dB above
 /// the real peak wherever the cap applies (loudest peaks -1.5 to -1.7 dBFS).
@@ -69,11 +73,31 @@ pub(super) const LEVEL: Level = Level {
         (60, -24.1),
         (72, -26.1),
         (78, -28.2),
-        (84, -32.9),
-        (90, -37.8),
-        (96, -53.8),
-        (102, -63.3),
-        (108, -56.8),
+        (84, -32.8),
+        (85, -33.4),
+        (86, -34.0),
+        (87, -35.7),
+        (88, -36.6),
+        (89, -37.4),
+        (90, -39.0),
+        (91, -40.1),
+        (92, -41.8),
+        (93, -43.1),
+        (94, -45.8),
+        (95, -48.4),
+        (96, -50.5),
+        (97, -54.5),
+        (98, -57.9),
+        (99, -63.4),
+        (100, -72.3),
+        (101, -60.2),
+        (102, -57.8),
+        (103, -57.7),
+        (104, -56.8),
+        (105, -57.8),
+        (106, -57.7),
+        (107, -56.8),
+        (108, -58.8),
     ]),
     peak_excess_db: Table(&[
         (21, -0.25),
@@ -109,6 +133,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
             damper(0.45 * (0.15f64 / 0.45).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.015)
         }),
         gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
+        ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S)),
         pan: pan(midi_key, KEYS),
     }
 }

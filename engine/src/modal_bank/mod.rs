@@ -441,6 +441,18 @@ impl ModalBank {
             .sum()
     }
 
+    /// Every mode's share of the bridge force now: its amplitude (N), decay
+    /// rate (1/s) and frequency (Hz). Allocates: for setting up, not the audio
+    /// thread.
+    pub fn bridge_partials(&self) -> Vec<(f64, f64, f64)> {
+        (0..self.len)
+            .map(|i| {
+                let lambda = self.lambda[i];
+                (Complex64::new(self.re[i], self.im[i]).norm(), -lambda.re, lambda.im / (2.0 * std::f64::consts::PI))
+            })
+            .collect()
+    }
+
     /// Bridge force of the present state, N.
     pub fn bridge_force_n(&self) -> f64 {
         lane_sum_all(&self.re)

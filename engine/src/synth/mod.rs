@@ -23,7 +23,9 @@ pub use event::{Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
-use crate::body::Bridge;
+use crate::body::boards::{self, BodyDesign};
+use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MAX_ZONES, MicPlacement, Soundboard};
+use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::Key;
 use crate::string::StringError;
@@ -62,6 +64,9 @@ pub struct InstrumentSettings {
     pub voicing: Voicing,
     pub sample_rate_hz: f64,
     pub tuning: TuningSettings,
+    /// Where the body's microphones listen from.
+    #[serde(default)]
+    pub mics: MicPlacement,
 }
 
 /// Why an instrument could not be built.
@@ -92,6 +97,8 @@ pub struct Controls {
     /// Bebung: how much deeper full aftertouch presses a clavichord tangent, as a
     /// fraction of its depth (the pitch rises with the square of the depth).
     pub bebung: f64,
+    /// What is heard: the body through its microphones, or the bridge force.
+    pub output: Output,
 }
 
 impl Default for Controls {
@@ -104,6 +111,7 @@ impl Default for Controls {
             output_gain: 1.0,
             bend_range_semitones: 2.0,
             bebung: 0.25,
+            output: Output::Microphones,
         }
     }
 }
@@ -128,6 +136,11 @@ pub struct Instrument {
     /// For every MIDI key: the course it plays and which of its notes it is.
     route: [Option<(u8, u8)>; 128],
     touch: TouchRange,
+    /// What its keys drive, the body those forces set ringing, and what the
+    /// body's microphones heard last.
+    bridge: Bridge,
+    soundboard: Soundboard,
+    heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
 }
 
 impl Instrument {
@@ -148,6 +161,8 @@ impl Instrument {
             let spec = design.strings.get(design.struck.start)?;
             spec.build().ok().map(|s| s.inharmonicity)
         });
+        let board = boards::design(settings.kind);
+        let mics = settings.mics.positions(&board);
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
         let mut route = [None; 128];
         for design in designs {
@@ -171,7 +186,53 @@ impl Instrument {
                 }
             }
         }
-        Ok(Self { settings: settings.clone(), keys, route, touch: settings.kind.touch_range() })
+        // The body's gain puts the middle key's partials where the bridge-force
+        // output has them; every other key is voiced through the body to ring as
+        // its own partials would there (a technician's regulation: the body still
+        // shapes each note's spectrum, decay and image, not the keyboard's
+        // evenness).
+        let heard = HeardModes::new(&board, BODY_TOP_HZ.min(0.45 * fs), mics);
+        let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
+        let mut soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
+        let loudest = settings.kind.touch_range().max();
+        for (k, key) in keys.iter_mut().enumerate() {
+            if let Some(key) = key {
+                let voicing = voice_through_body(key, k as u8, loudest, &board, &heard, &mut soundboard);
+                key.bear_on(board.zone_share(k as u8), voicing);
+            }
+        }
+        Ok(Self {
+            settings: settings.clone(),
+            keys,
+            route,
+            touch: settings.kind.touch_range(),
+            bridge: Bridge::default(),
+            soundboard,
+            heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
+        })
+    }
+
+    /// The body's modes (for the lab and the live view).
+    pub fn body_mode_count(&self) -> usize {
+        self.soundboard.mode_count()
+    }
+
+    /// Add what `output` hears of this stretch to `left` and `right`.
+    fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64]) {
+        match output {
+            Output::BridgeForce => {
+                let (l, r) = self.bridge.panned();
+                left.iter_mut().zip(l).for_each(|(o, v)| *o += v);
+                right.iter_mut().zip(r).for_each(|(o, v)| *o += v);
+            }
+            Output::Microphones => {
+                let n = self.bridge.len();
+                let [heard_l, heard_r] = &mut *self.heard;
+                self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n]);
+                left.iter_mut().zip(&heard_l[..n]).for_each(|(o, v)| *o += v);
+                right.iter_mut().zip(&heard_r[..n]).for_each(|(o, v)| *o += v);
+            }
+        }
     }
 
     pub fn settings(&self) -> &InstrumentSettings {
@@ -247,9 +308,9 @@ pub struct Synth {
     dc_r: f64,
     /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
     glide: f64,
-    /// What the keys drive, and one key's force for a stretch.
-    bridge: Bridge,
+    /// One key's force for a stretch, and what every instrument sounding gave.
     scratch: [f64; CONTROL_BLOCK],
+    mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
 }
@@ -275,8 +336,8 @@ impl Synth {
             dc: [DcBlock::default(); 2],
             dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
             glide: glide_step(fs),
-            bridge: Bridge::default(),
             scratch: [0.0; CONTROL_BLOCK],
+            mix: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             ended: Vec::with_capacity(1024),
             scope,
         };
@@ -343,6 +404,7 @@ impl Synth {
                     new.take_over(old, bend);
                 }
             }
+            instrument.soundboard.take_over(&self.current.soundboard);
             let old = std::mem::replace(&mut self.current, instrument);
             self.retire(old);
         } else {
@@ -528,19 +590,23 @@ impl Synth {
 
     fn render(&mut self, left: &mut [f32], right: &mut [f32]) {
         let n = left.len();
-        self.bridge.start(n);
+        let [mix_l, mix_r] = &mut *self.mix;
+        mix_l[..n].fill(0.0);
+        mix_r[..n].fill(0.0);
         let scope_key = self.scope.key();
-        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+        let output = self.controls.output;
+        for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
+            instrument.bridge.start(n);
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
-                let watched = scope_key == Some(key.midi_key());
+                let watched = i == 0 && scope_key == Some(key.midi_key());
                 let contact = if watched { self.scope.contact_slots(n) } else { None };
-                key.sound(&mut self.bridge, &mut self.scratch[..n], contact);
+                key.sound(&mut instrument.bridge, &mut self.scratch[..n], contact);
                 if watched {
                     self.scope.during_contact(key.watched_string());
                 }
             }
+            instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
         }
-        let (mix_l, mix_r) = self.bridge.radiated();
         let (glide, r) = (self.glide, self.dc_r);
         for t in 0..n {
             self.gain += (self.controls.output_gain - self.gain) * glide;
@@ -553,6 +619,120 @@ impl Synth {
     }
 }
 
+/// How loud a key's partials come through the body, Pa/N: the pressure per
+/// newton where the key bears on the bridge, power-averaged over both
+/// microphones and over a whole tone around each of its first six partials
+/// (where they sound, give or take their stretch and the unison's spread), the
+/// partials weighted 1/n^4, as the ring of a struck string's bridge force
+/// falls off. A key is voiced by it as a technician voices one by ear.
+fn heard_pa_per_n(board: &BodyDesign, heard: &HeardModes, midi_key: u8, f1_hz: f64) -> f64 {
+    // The running body hears a key through the two zones it bears between.
+    let zones = board.zone_points();
+    let share = board.zone_share(midi_key);
+    let points: Vec<((f64, f64), f64)> =
+        share.zones.iter().zip(share.weights).filter_map(|(&z, w)| zones.get(z).map(|&p| (p, w))).collect();
+    let (mut power, mut weights) = (0.0, 0.0);
+    for n in 1..=6 {
+        let weight = 1.0 / (n * n * n * n) as f64;
+        let steps = 8;
+        let band = (0..steps)
+            .map(|i| {
+                let f = n as f64 * f1_hz * 2f64.powf((i as f64 / (steps - 1) as f64 - 0.5) / 6.0);
+                let [l, r] = heard.transfer_spread_pa_per_n(&points, f);
+                0.5 * (l.norm_sqr() + r.norm_sqr())
+            })
+            .sum::<f64>()
+            / steps as f64;
+        power += weight * band;
+        weights += weight;
+    }
+    (power / weights).sqrt()
+}
+
+/// The loudest touch's peak through the microphones is held at or below this,
+/// dBFS: the -1 dBFS the instruments promise, less a dB for what the short probe
+/// of each key misses (a later peak of its tone).
+const MIC_PEAK_CEILING_DBFS: f64 = -2.0;
+
+/// How long a key's loudest strike is played when it is voiced, s: the hammer
+/// has left every string by then, and the strike's peak has passed.
+const PROBE_S: f64 = 0.008;
+
+/// The most partials of a key weighed through the body when it is voiced.
+const PROBE_PARTIALS: usize = 40;
+
+/// How much louder the body hears `key` than the bridge-force output does:
+/// its loudest strike is played alone, and what its strings then ring with,
+/// partial by partial, is weighed through the body (the ring 50-300 ms after
+/// the strike, each partial decaying at its own rate, the strings of a unison
+/// adding in power) against what the bridge-force output would ring with at
+/// the key's ringing gain: so each key rings through the microphones where the
+/// instrument's level scale puts it, whatever the body does at its partials.
+/// Then, if the strike's first milliseconds through the body would peak above
+/// [`MIC_PEAK_CEILING_DBFS`], the key is turned down until they do not (the
+/// hammer's push on the bridge, which the bridge-force output caps, reaches the
+/// microphones only through the body's response to it).
+fn voice_through_body(
+    key: &mut Key,
+    midi_key: u8,
+    loudest: Touch,
+    board: &BodyDesign,
+    heard_modes: &HeardModes,
+    soundboard: &mut Soundboard,
+) -> f64 {
+    let fs = 1.0 / soundboard.step_s();
+    let mut force = vec![0.0; (PROBE_S * fs) as usize];
+    let partials = key.probe(loudest, &mut force);
+    let share = board.zone_share(midi_key);
+    let zones = board.zone_points();
+    let points: Vec<((f64, f64), f64)> =
+        share.zones.iter().zip(share.weights).filter_map(|(&z, w)| zones.get(z).map(|&p| (p, w))).collect();
+    // Mean of exp(-2 sigma t) over the ring's window, t from the probe's end.
+    let (from, to) = (0.05 - PROBE_S, 0.3 - PROBE_S);
+    let held = |sigma: f64| {
+        if sigma * (to - from) < 1e-9 { 1.0 } else { ((-2.0 * sigma * from).exp() - (-2.0 * sigma * to).exp()) / (2.0 * sigma * (to - from)) }
+    };
+    // The strongest partials, as many as carry all but a thousandth of the ring.
+    let mut ringing: Vec<(f64, f64)> =
+        partials.iter().filter(|p| p.2 > 0.0).map(|&(a, sigma, f)| (0.5 * a * a * held(sigma), f)).collect();
+    ringing.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let strongest = ringing.first().map_or(0.0, |p| p.0);
+    let (mut bridge, mut heard) = (0.0, 0.0);
+    for &(power, f_hz) in ringing.iter().take(PROBE_PARTIALS) {
+        if power < 1e-3 * strongest {
+            break;
+        }
+        let [l, r] = heard_modes.transfer_spread_pa_per_n(&points, f_hz);
+        bridge += power;
+        heard += power * 0.5 * (l.norm_sqr() + r.norm_sqr()) * soundboard.gain().powi(2);
+    }
+    let mut voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
+    // The strike's first milliseconds through the body, at that voicing.
+    soundboard.silence();
+    let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+    let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+    let mut peak = 0.0f64;
+    for chunk in force.chunks(CONTROL_BLOCK) {
+        for zone in &mut zone_forces {
+            zone.fill(0.0);
+        }
+        for (&z, w) in share.zones.iter().zip(share.weights) {
+            for (t, f) in chunk.iter().enumerate() {
+                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * voicing;
+            }
+        }
+        let n = chunk.len();
+        soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
+        peak = left[..n].iter().chain(&right[..n]).fold(peak, |m, v| m.max(v.abs()));
+    }
+    soundboard.silence();
+    let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
+    if peak > ceiling {
+        voicing *= ceiling / peak;
+    }
+    voicing
+}
+
 /// The output gain's per-sample glide coefficient: a 10 ms time constant.
 fn glide_step(sample_rate_hz: f64) -> f64 {
     1.0 - (-1.0 / (0.01 * sample_rate_hz)).exp()
@@ -561,7 +741,13 @@ fn glide_step(sample_rate_hz: f64) -> f64 {
 /// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built,
 /// in equal temperament at A4 = 440 Hz.
 pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> InstrumentSettings {
-    InstrumentSettings { kind, voicing: Voicing::default(), sample_rate_hz, tuning: TuningSettings::default() }
+    InstrumentSettings {
+        kind,
+        voicing: Voicing::default(),
+        sample_rate_hz,
+        tuning: TuningSettings::default(),
+        mics: MicPlacement::default(),
+    }
 }
 
 /// `design` (in equal temperament at 440 Hz) retuned to `frequencies_hz`: every

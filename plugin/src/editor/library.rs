@@ -141,6 +141,7 @@ impl Library {
             voicing: params.voicing(),
             controls: params.controls(),
             tuning: params.tuning(),
+            mics: params.mics(),
         };
         save_user_preset(&dir, &preset).map_err(|e| e.to_string())
     }
@@ -221,6 +222,9 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.touch.min, c.touch_min as f32);
     set(setter, &params.touch.max, c.touch_max as f32);
     set(setter, &params.touch.shape, c.touch_shape as f32);
+    set(setter, &params.output.source, crate::params::OutputChoice::of(c.output));
+    set(setter, &params.output.perspective, crate::params::PerspectiveChoice::of(preset.mics.perspective));
+    set(setter, &params.output.width, preset.mics.width as f32);
     set(setter, &params.tangent.bebung, c.bebung as f32);
     set(setter, &params.output.polyphony, c.polyphony.clamp(1, 128) as i32);
     set(setter, &params.output.bend_range, c.bend_range_semitones.round() as i32);
@@ -279,6 +283,7 @@ mod tests {
                 voicing: params.voicing(),
                 controls: params.controls(),
                 tuning: params.tuning(),
+                mics: params.mics(),
             };
             let what = &preset.name;
             assert_eq!(Some(saved.instrument.unwrap()), preset.instrument.or(Some(params.kind())), "{what}");

@@ -24,7 +24,7 @@ use nice_plug_egui::{
 use struck_engine::synth::Scope;
 use struck_engine::design::TouchRange;
 
-use crate::params::{InstrumentChoice, StruckParams, TemperamentChoice};
+use crate::params::{InstrumentChoice, OutputChoice, PerspectiveChoice, StruckParams, TemperamentChoice};
 use crate::standalone;
 use views::LiveView;
 
@@ -205,6 +205,28 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Polyphony", &params.output.polyphony, setter);
         slider(ui, "Bend range", &params.output.bend_range, setter);
         slider(ui, "Level", &params.output.level_db, setter);
+        ui.horizontal_wrapped(|ui| {
+            let current = params.output.source.value();
+            for choice in [OutputChoice::Microphones, OutputChoice::BridgeForce] {
+                let name = match choice {
+                    OutputChoice::Microphones => "Microphones",
+                    OutputChoice::BridgeForce => "Bridge force",
+                };
+                if ui.selectable_label(current == choice, name).clicked() && current != choice {
+                    set(setter, &params.output.source, choice);
+                }
+            }
+        });
+        ui.horizontal_wrapped(|ui| {
+            let current = params.output.perspective.value();
+            for choice in PerspectiveChoice::ALL {
+                let name = choice.perspective().name();
+                if ui.selectable_label(current == choice, name).clicked() && current != choice {
+                    set(setter, &params.output.perspective, choice);
+                }
+            }
+        });
+        slider(ui, "Width", &params.output.width, setter);
     });
 }
 

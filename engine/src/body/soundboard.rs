@@ -31,7 +31,7 @@ pub const MAX_ZONES: usize = 8;
 /// Modes are carried up to this frequency (or 0.45 of the sample rate): above
 /// it a string's partials reach the microphones only through the modes' mass
 /// line (the direct share).
-pub const BODY_TOP_HZ: f64 = 10_000.0;
+pub const BODY_TOP_HZ: f64 = 8_000.0;
 
 /// Below this level (full scale) with no force coming in, the body is at rest.
 const REST_LEVEL: f64 = 1e-9;
@@ -129,13 +129,20 @@ pub struct Soundboard {
     pole_im: Vec<[f64; LANES]>,
     re: Vec<[f64; LANES]>,
     im: Vec<[f64; LANES]>,
-    drive: Vec<[[[f64; LANES]; MAX_ZONES]; 2]>,
+    /// Each mode's complex step for a unit force held over a sample, and its
+    /// shape at each zone: a zone's force drives the mode by held * shape.
+    held_re: Vec<[f64; LANES]>,
+    held_im: Vec<[f64; LANES]>,
+    shape: Vec<[[f64; LANES]; MAX_ZONES]>,
     out: [[Vec<[f64; LANES]>; 2]; 2],
     /// The force's direct share per microphone and zone.
     direct: [[f64; MAX_ZONES]; 2],
     /// Largest microphone weight on a mode (for the rest test).
     largest_weight: f64,
     resting: bool,
+    /// Output gain for "all sound off": `fade` moves by `fade_step` a sample.
+    fade: f64,
+    fade_step: f64,
     step_s: f64,
     gain: f64,
     acc: Box<[[[f64; LANES]; CONTROL_BLOCK]; 2]>,
@@ -145,7 +152,8 @@ pub struct Soundboard {
 /// A body mode with everything per zone and per microphone worked out.
 struct PlannedMode {
     pole: Complex64,
-    drive: [Complex64; MAX_ZONES],
+    held: Complex64,
+    shape: [f64; MAX_ZONES],
     out: [Complex64; 2],
     direct: [[f64; MAX_ZONES]; 2],
 }
@@ -173,7 +181,9 @@ impl Soundboard {
             pole_im: vec![[0.0; LANES]; groups],
             re: vec![[0.0; LANES]; groups],
             im: vec![[0.0; LANES]; groups],
-            drive: vec![[[[0.0; LANES]; MAX_ZONES]; 2]; groups],
+            held_re: vec![[0.0; LANES]; groups],
+            held_im: vec![[0.0; LANES]; groups],
+            shape: vec![[[0.0; LANES]; MAX_ZONES]; groups],
             out: [[vec![[0.0; LANES]; groups], vec![[0.0; LANES]; groups]], [
                 vec![[0.0; LANES]; groups],
                 vec![[0.0; LANES]; groups],
@@ -181,6 +191,8 @@ impl Soundboard {
             direct: [[0.0; MAX_ZONES]; 2],
             largest_weight: 0.0,
             resting: true,
+            fade: 1.0,
+            fade_step: 0.0,
             step_s: h,
             gain,
             acc: Box::new([[[0.0; LANES]; CONTROL_BLOCK]; 2]),
@@ -190,9 +202,10 @@ impl Soundboard {
             let (g, l) = (i / LANES, i % LANES);
             body.pole_re[g][l] = mode.pole.re;
             body.pole_im[g][l] = mode.pole.im;
+            body.held_re[g][l] = mode.held.re;
+            body.held_im[g][l] = mode.held.im;
             for z in 0..zones {
-                body.drive[g][0][z][l] = mode.drive[z].re;
-                body.drive[g][1][z][l] = mode.drive[z].im;
+                body.shape[g][z][l] = mode.shape[z];
             }
             for (mic, out) in body.out.iter_mut().enumerate() {
                 out[0][g][l] = mode.out[mic].re * gain;
@@ -235,10 +248,24 @@ impl Soundboard {
         }
     }
 
+    /// Whether every mode is at rest.
+    pub fn is_resting(&self) -> bool {
+        self.resting
+    }
+
+    /// Fade out over `seconds`, then fall silent (all sound off).
+    pub fn fade_out(&mut self, seconds: f64) {
+        if !self.resting {
+            self.fade_step = -self.step_s / seconds.max(self.step_s);
+        }
+    }
+
     /// Every mode at rest.
     pub fn silence(&mut self) {
         self.re.iter_mut().chain(self.im.iter_mut()).for_each(|g| *g = [0.0; LANES]);
         self.resting = true;
+        self.fade = 1.0;
+        self.fade_step = 0.0;
     }
 
     /// Run `left.len()` samples (at most a control block) of the zones' forces
@@ -265,14 +292,23 @@ impl Soundboard {
         acc_l[..n].fill([0.0; LANES]);
         acc_r[..n].fill([0.0; LANES]);
         let [[lr, li], [rr, ri]] = &self.out;
+        // The active zones' forces side by side, for the kernel.
+        let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+        for (push, &z) in pushes.iter_mut().zip(&active[..count]) {
+            push[..n].copy_from_slice(&forces[z][..n]);
+        }
         run_block(
-            &mut self.re,
-            &mut self.im,
-            &self.pole_re,
-            &self.pole_im,
-            &self.drive,
-            [lr, li, rr, ri],
-            forces,
+            Modes {
+                re: &mut self.re,
+                im: &mut self.im,
+                pole_re: &self.pole_re,
+                pole_im: &self.pole_im,
+                held_re: &self.held_re,
+                held_im: &self.held_im,
+                shape: &self.shape,
+                out: [lr, li, rr, ri],
+            },
+            &pushes,
             &active[..count],
             &mut acc_l[..n],
             &mut acc_r[..n],
@@ -281,6 +317,17 @@ impl Soundboard {
             let direct = |mic: usize| active[..count].iter().map(|&z| self.direct[mic][z] * forces[z][t]).sum::<f64>();
             left[t] = lane_sum(&acc_l[t]) + direct(0);
             right[t] = lane_sum(&acc_r[t]) + direct(1);
+        }
+        if self.fade_step != 0.0 {
+            for (l, r) in left[..n].iter_mut().zip(&mut right[..n]) {
+                self.fade = (self.fade + self.fade_step).max(0.0);
+                *l *= self.fade;
+                *r *= self.fade;
+            }
+            if self.fade <= 0.0 {
+                self.silence();
+                return;
+            }
         }
         // At rest once nothing pushes and no mode could reach REST_LEVEL.
         if !pushed {
@@ -306,9 +353,9 @@ fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: [
     let g = Complex64::new(0.0, -1.0 / (mode.modal_mass_kg * omega_d));
     let pole = (lambda * h).exp();
     let held = g * (pole - 1.0) / lambda;
-    let mut drive = [Complex64::new(0.0, 0.0); MAX_ZONES];
-    for (d, &(x, y)) in drive.iter_mut().zip(zone_points) {
-        *d = held * shape_at(mode, &board.plate, x, y);
+    let mut shape = [0.0; MAX_ZONES];
+    for (d, &(x, y)) in shape.iter_mut().zip(zone_points) {
+        *d = shape_at(mode, &board.plate, x, y);
     }
     let mut out = [Complex64::new(0.0, 0.0); 2];
     let mut direct = [[0.0; MAX_ZONES]; 2];
@@ -322,49 +369,125 @@ fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: [
             direct[mic][z] = share * shape_at(mode, &board.plate, x, y);
         }
     }
-    PlannedMode { pole, drive, out, direct }
+    PlannedMode { pole, held, shape, out, direct }
 }
 
+/// The running body's modes, by groups of LANES.
+struct Modes<'a> {
+    re: &'a mut [[f64; LANES]],
+    im: &'a mut [[f64; LANES]],
+    pole_re: &'a [[f64; LANES]],
+    pole_im: &'a [[f64; LANES]],
+    held_re: &'a [[f64; LANES]],
+    held_im: &'a [[f64; LANES]],
+    shape: &'a [[[f64; LANES]; MAX_ZONES]],
+    out: [&'a Vec<[f64; LANES]>; 4],
+}
+
+/// Groups stepped side by side (their chains of dependent operations overlap).
+const BODY_CHAIN: usize = 2;
+
+// The kernel wraps a sample index into the block with a mask.
+const _: () = assert!(CONTROL_BLOCK.is_power_of_two());
+
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
-#[allow(clippy::too_many_arguments)]
 fn run_block(
-    re: &mut [[f64; LANES]],
-    im: &mut [[f64; LANES]],
-    pole_re: &[[f64; LANES]],
-    pole_im: &[[f64; LANES]],
-    drive: &[[[[f64; LANES]; MAX_ZONES]; 2]],
-    out: [&Vec<[f64; LANES]>; 4],
-    forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    mut modes: Modes,
+    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
     acc_l: &mut [[f64; LANES]],
     acc_r: &mut [[f64; LANES]],
 ) {
-    let [lr, li, rr, ri] = out;
-    for g in 0..re.len() {
-        let (mut zr, mut zi) = (re[g], im[g]);
-        let (pr, pi, [wr, wi]) = (&pole_re[g], &pole_im[g], &drive[g]);
-        let (lr, li, rr, ri) = (&lr[g], &li[g], &rr[g], &ri[g]);
-        for t in 0..acc_l.len() {
-            let (mut ur, mut ui) = ([0.0; LANES], [0.0; LANES]);
-            for &z in active {
-                let f = forces[z][t];
+    // One kernel per number of zones pushed on, so that its loop is unrolled.
+    match active.len() {
+        0 => run_groups::<0>(&mut modes, pushes, active, acc_l, acc_r),
+        1 => run_groups::<1>(&mut modes, pushes, active, acc_l, acc_r),
+        2 => run_groups::<2>(&mut modes, pushes, active, acc_l, acc_r),
+        3 => run_groups::<3>(&mut modes, pushes, active, acc_l, acc_r),
+        4 => run_groups::<4>(&mut modes, pushes, active, acc_l, acc_r),
+        5 => run_groups::<5>(&mut modes, pushes, active, acc_l, acc_r),
+        6 => run_groups::<6>(&mut modes, pushes, active, acc_l, acc_r),
+        7 => run_groups::<7>(&mut modes, pushes, active, acc_l, acc_r),
+        _ => run_groups::<MAX_ZONES>(&mut modes, pushes, active, acc_l, acc_r),
+    }
+}
+
+/// Every group, `BODY_CHAIN` at a time, with `Z` zones pushed on.
+#[inline(always)]
+fn run_groups<const Z: usize>(
+    modes: &mut Modes,
+    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    active: &[usize],
+    acc_l: &mut [[f64; LANES]],
+    acc_r: &mut [[f64; LANES]],
+) {
+    let groups = modes.re.len();
+    let mut g = 0;
+    while g + BODY_CHAIN <= groups {
+        run_chain::<BODY_CHAIN, Z>(modes, g, pushes, active, acc_l, acc_r);
+        g += BODY_CHAIN;
+    }
+    while g < groups {
+        run_chain::<1, Z>(modes, g, pushes, active, acc_l, acc_r);
+        g += 1;
+    }
+}
+
+/// `G` groups from `first` over a block with `Z` zones pushed on, state in registers.
+#[inline(always)]
+fn run_chain<const G: usize, const Z: usize>(
+    modes: &mut Modes,
+    first: usize,
+    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    active: &[usize],
+    acc_l: &mut [[f64; LANES]],
+    acc_r: &mut [[f64; LANES]],
+) {
+    let [lr, li, rr, ri] = modes.out;
+    let mut zr = [[0.0; LANES]; G];
+    let mut zi = [[0.0; LANES]; G];
+    let mut shape = [[[0.0; LANES]; Z]; G];
+    // Poles, drives and weights held in registers over the block: [pr, pi, hr, hi, lr, li, rr, ri].
+    let mut k8 = [[[0.0; LANES]; 8]; G];
+    for c in 0..G {
+        let g = first + c;
+        zr[c] = modes.re[g];
+        zi[c] = modes.im[g];
+        for (k, &z) in active.iter().enumerate().take(Z) {
+            shape[c][k] = modes.shape[g][z];
+        }
+        k8[c] = [modes.pole_re[g], modes.pole_im[g], modes.held_re[g], modes.held_im[g], lr[g], li[g], rr[g], ri[g]];
+    }
+    for (t, (al, ar)) in acc_l.iter_mut().zip(acc_r.iter_mut()).enumerate() {
+        let mut f = [0.0; Z];
+        for (f, push) in f.iter_mut().zip(pushes) {
+            *f = push[t & (CONTROL_BLOCK - 1)];
+        }
+        let (mut sum_l, mut sum_r) = ([0.0; LANES], [0.0; LANES]);
+        for c in 0..G {
+            let mut s = [0.0; LANES];
+            for k in 0..Z {
                 for l in 0..LANES {
-                    ur[l] += wr[z][l] * f;
-                    ui[l] += wi[z][l] * f;
+                    s[l] = shape[c][k][l].mul_add(f[k], s[l]);
                 }
             }
+            let [pr, pi, hr, hi, olr, oli, orr, ori] = &k8[c];
             for l in 0..LANES {
-                let r = pr[l] * zr[l] - pi[l] * zi[l] + ur[l];
-                let i = pr[l] * zi[l] + pi[l] * zr[l] + ui[l];
-                zr[l] = r;
-                zi[l] = i;
-                acc_l[t][l] += lr[l] * r - li[l] * i;
-                acc_r[t][l] += rr[l] * r - ri[l] * i;
+                let r = pr[l].mul_add(zr[c][l], hr[l].mul_add(s[l], -(pi[l] * zi[c][l])));
+                let i = pr[l].mul_add(zi[c][l], hi[l].mul_add(s[l], pi[l] * zr[c][l]));
+                zr[c][l] = r;
+                zi[c][l] = i;
+                sum_l[l] = olr[l].mul_add(r, oli[l].mul_add(-i, sum_l[l]));
+                sum_r[l] = orr[l].mul_add(r, ori[l].mul_add(-i, sum_r[l]));
             }
         }
-        re[g] = zr;
-        im[g] = zi;
+        for l in 0..LANES {
+            al[l] += sum_l[l];
+            ar[l] += sum_r[l];
+        }
     }
+    modes.re[first..first + G].copy_from_slice(&zr);
+    modes.im[first..first + G].copy_from_slice(&zi);
 }
 
 /// A body's modes with what each microphone hears of them: for working out,
@@ -455,11 +578,43 @@ mod tests {
             let (want_l, want_r) = (tl.norm() / 2f64.sqrt(), tr.norm() / 2f64.sqrt());
             let off_db = |got: f64, want: f64| 20.0 * (got / want).log10();
             println!("{f} Hz: left {:.2} dB, right {:.2} dB off the transfer", off_db(rms_l, want_l), off_db(rms_r, want_r));
-            // Above a kilohertz the force held over each sample (and the direct
-            // share, which is not held) part from the continuous modes by a little.
-            let tolerance = if f <= 500.0 { 1.0 } else { 2.0 };
-            assert!(off_db(rms_l, want_l).abs() < tolerance && off_db(rms_r, want_r).abs() < tolerance, "{f} Hz");
+            // Above a few hundred hertz the force held over each sample (and
+            // the direct share, which is not held) part from the continuous modes
+            // by a little: judged against the louder microphone, so that a trough
+            // in one (where little comes out at all) does not count as a miss.
+            let tolerance = if f <= 500.0 { 0.12 } else { 0.3 };
+            let louder = want_l.max(want_r);
+            assert!((rms_l - want_l).abs() < tolerance * louder && (rms_r - want_r).abs() < tolerance * louder, "{f} Hz");
         }
     }
 }
 
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+    use crate::body::boards::design;
+    use crate::design::InstrumentKind;
+
+    #[test]
+    #[ignore = "timing"]
+    fn body_cost() {
+        let board = design(InstrumentKind::Piano);
+        let mics = MicPlacement::default().positions(&board);
+        let mut body = Soundboard::build(&board, 48_000.0, &board.zone_points(), mics, 1.0);
+        let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+        for (z, f) in forces.iter_mut().enumerate().take(4) {
+            for (t, v) in f.iter_mut().enumerate() {
+                *v = ((t * 7 + z * 13) % 17) as f64 - 8.0;
+            }
+        }
+        let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+        let blocks = 48_000 / CONTROL_BLOCK;
+        let start = std::time::Instant::now();
+        for _ in 0..blocks {
+            body.process(&forces, &mut l, &mut r);
+        }
+        let s = start.elapsed().as_secs_f64();
+        println!("{} modes: {:.2} ms per second of sound, {:.3} ns per mode-sample", body.mode_count(), s * 1e3, s * 1e9 / (48_000.0 * body.mode_count() as f64));
+    }
+}

@@ -413,6 +413,7 @@ impl Synth {
             for key in old.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 key.fade_out(SWITCH_FADE_S, fs);
             }
+            old.soundboard.fade_out(SWITCH_FADE_S);
             if let Some(previous) = self.outgoing.replace(old) {
                 self.retire(previous);
             }
@@ -517,6 +518,7 @@ impl Synth {
                     k.release_all();
                     k.fade_out(STEAL_FADE_S, fs);
                 }
+                self.current.soundboard.fade_out(STEAL_FADE_S);
                 self.sustain = 0.0;
                 self.sostenuto = false;
                 self.una_corda = false;
@@ -580,7 +582,12 @@ impl Synth {
                 }
             }
         }
-        if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none()) {
+        // The outgoing instrument leaves once its keys are silent and its body has rung out.
+        let heard_as_bridge_force = self.controls.output == Output::BridgeForce;
+        if let Some(old) = self
+            .outgoing
+            .take_if(|o| o.active_keys().next().is_none() && (heard_as_bridge_force || o.soundboard.is_resting()))
+        {
             self.retire(old);
         }
         if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {

@@ -20,6 +20,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use struck_engine::body::Output;
+use struck_engine::body::soundboard::Perspective;
 use struck_engine::design::InstrumentKind;
 use struck_engine::preset::Preset;
 use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
@@ -92,6 +94,14 @@ pub struct RenderArgs {
     /// Samples per call to the synth (1 to 8192); the output is the same for any size.
     #[arg(long, value_name = "N", default_value_t = 512, allow_negative_numbers = true)]
     pub block_size: i64,
+    /// What is heard: mics (the body through its pair of microphones) or bridge
+    /// (the strings' force on a rigid bridge, panned: the seed's surrogate)
+    /// [default: the preset's, else mics]
+    #[arg(long, value_name = "mics|bridge")]
+    pub output: Option<String>,
+    /// Where the microphones listen from: close|player|lid [default: the preset's, else close]
+    #[arg(long, value_name = "NAME")]
+    pub mics: Option<String>,
     /// Play channel 10 too (ignored by default: General MIDI keeps drums there).
     #[arg(long)]
     pub include_channel_10: bool,
@@ -144,7 +154,22 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     }
 
     let tuned = tuning != TuningSettings::default();
-    let settings = Preset { instrument: Some(kind), tuning, ..preset.clone() }.settings(fs_hz);
+    let mut controls = preset.controls;
+    if let Some(output) = &args.output {
+        controls.output = match output.to_ascii_lowercase().as_str() {
+            "mics" | "microphones" => Output::Microphones,
+            "bridge" | "bridge-force" => Output::BridgeForce,
+            _ => return Err(Failure::bad_input(format!("--output {output}: expected mics or bridge"))),
+        };
+    }
+    let mut mics = preset.mics;
+    if let Some(name) = &args.mics {
+        mics.perspective = Perspective::ALL
+            .into_iter()
+            .find(|p| p.name().eq_ignore_ascii_case(name))
+            .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
+    }
+    let settings = Preset { instrument: Some(kind), tuning, mics, ..preset.clone() }.settings(fs_hz);
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
         (Some(path), _) => {
             Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
@@ -153,7 +178,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
     })?;
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
-    synth.set_controls(preset.controls);
+    synth.set_controls(controls);
 
     if !args.quiet && playable < notes {
         eprintln!(

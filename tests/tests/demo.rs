@@ -264,6 +264,7 @@ fn charts_and_animations_of_any_key_or_case() {
         vec!["chart", "strike", case_arg, "--speeds", "0.5,2", "--per-speed", "--out", out_arg],
         vec!["chart", "stringing", "--instrument", "dulcimer", "--out", out_arg],
         vec!["chart", "clavichord", "--out", out_arg],
+        vec!["chart", "body", "--instrument", "piano", "--out", out_arg],
         vec!["chart", "universal", "--grid", "4", "--out", out_arg],
         vec!["animate", case_arg, "--frames", "20", "--out", gif.to_str().unwrap()],
     ] {
@@ -282,6 +283,9 @@ fn charts_and_animations_of_any_key_or_case() {
         "stringing-dulcimer-impedance.png",
         "fig29-clavichord-pitch-rise.png",
         "fig22-universal-centroid.png",
+        "body-piano-mobility.png",
+        "body-piano-microphones.csv",
+        "body-piano-modes.png",
     ] {
         assert!(names.iter().any(|n| n == expected), "{expected} not in {names:?}");
     }
@@ -289,4 +293,10 @@ fn charts_and_animations_of_any_key_or_case() {
     let contact = series(&out.join("contact-force.csv"));
     assert_eq!(contact.len(), 2, "{:?}", contact.keys());
     assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF89a"));
+    // The board's mobility near 100 Hz is Wogram's order of magnitude.
+    let mobility = series(&out.join("body-piano-mobility.csv"));
+    let middle = mobility.iter().find(|(k, _)| k.contains("|Y| at key 64")).map(|(_, v)| v).unwrap();
+    let near_100: Vec<f64> = middle.iter().filter(|(f, _)| (70.0..140.0).contains(f)).map(|p| p.1).collect();
+    let mean = (near_100.iter().map(|y| y.ln()).sum::<f64>() / near_100.len() as f64).exp();
+    assert!((3e-4..3e-3).contains(&mean), "{mean}");
 }

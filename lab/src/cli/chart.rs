@@ -42,6 +42,11 @@ pub enum Chart {
     /// Clavichord charts (Figs. 29-31): pitch rise against tangent depth,
     /// tangent motions, Q with and without the leak past the tangent.
     Clavichord,
+    /// The instrument's body: the board's bridge mobility |Y(f)| at the lowest,
+    /// middle and highest keys' bridge points against the Skudrzyk mean and
+    /// (piano) Wogram's measurement; the close microphones' pressure per newton
+    /// at the middle key; the mode count, the board's and the running body's.
+    Body(StringingArgs),
 }
 
 #[derive(Args)]
@@ -228,6 +233,11 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
         Chart::Clavichord => {
             create()?;
             figures::clavichord(out).map_err(failed)?
+        }
+        Chart::Body(b) => {
+            let kind = parse_kind(&b.instrument)?;
+            create()?;
+            figures::body::body(kind, out).map_err(failed)?
         }
     };
     report(&drawn, started);

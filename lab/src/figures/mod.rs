@@ -6,6 +6,7 @@
 //! force pulse are of the whole pulse, spectra of a bridge force of a
 //! Hann-windowed stretch of it.
 
+pub mod body;
 pub mod hammer;
 
 use std::path::{Path, PathBuf};

@@ -200,3 +200,24 @@ fn print_stereo_for_every_perspective() {
         }
     }
 }
+
+#[test]
+#[ignore = "a measurement to look at, not a check"]
+fn print_ring_evenness_of_every_instrument() {
+    for kind in InstrumentKind::ALL {
+        for output in [Output::Microphones, Output::BridgeForce] {
+            let mut s = synth(kind, output);
+            let range = kind.key_range();
+            let rings: Vec<f64> = range
+                .clone()
+                .step_by(3)
+                .map(|key| {
+                    let (l, r) = note(&mut s, key, 80.0 / 127.0, 0.35);
+                    ring_db(&l, &r)
+                })
+                .collect();
+            let (lo, hi) = rings.iter().fold((f64::MAX, f64::MIN), |(a, b), &r| (a.min(r), b.max(r)));
+            println!("{kind} {output:?}: ring {lo:.1} to {hi:.1} dB, span {:.1} dB", hi - lo);
+        }
+    }
+}

@@ -513,6 +513,8 @@ fn refuses_bad_arguments() {
         (&["--temperament", "pythagorean"], "--temperament: unknown temperament \"pythagorean\""),
         (&["--temperament", "scala"], "--temperament: scala needs a scale"),
         (&["--scl", "no-such-scale.scl"], "--scl no-such-scale.scl: cannot read"),
+        (&["--output", "speakers"], "--output speakers: expected mics or bridge"),
+        (&["--mics", "under"], "--mics under: expected close, player or lid"),
     ] {
         assert_refused(&scratch, &song, args, named);
     }

@@ -58,6 +58,17 @@ fn peak_to_ring_db(left: &[f64], right: &[f64]) -> f64 {
     db(peak * peak) - ring_db(left, right)
 }
 
+/// From 100 ms on: the correlation of left and right, and the mono sum's
+/// power against the stereo pair's, dB.
+fn stereo(left: &[f64], right: &[f64]) -> (f64, f64) {
+    let (a, b) = ((0.1 * FS) as usize, left.len());
+    let (l, r) = (&left[a..b], &right[a..b]);
+    let cross = l.iter().zip(r).map(|(l, r)| l * r).sum::<f64>() / l.len() as f64;
+    let correlation = cross / (mean_square(l) * mean_square(r)).sqrt();
+    let mono: Vec<f64> = l.iter().zip(r).map(|(l, r)| 0.5 * (l + r)).collect();
+    (correlation, db(mean_square(&mono)) - db(0.5 * (mean_square(l) + mean_square(r))))
+}
+
 /// A fourth-order Butterworth low-pass at `fc` (two biquads, bilinear).
 fn low_pass(x: &[f64], fc: f64) -> Vec<f64> {
     let mut y = x.to_vec();
@@ -141,12 +152,7 @@ fn a_sustained_middle_note_is_heard_in_stereo_and_survives_mono() {
         let range = kind.key_range();
         let key = (*range.start() + *range.end()) / 2;
         let (l, r) = note(&mut s, key, 0.7, 1.0);
-        let (a, b) = ((0.1 * FS) as usize, l.len());
-        let (l, r) = (&l[a..b], &r[a..b]);
-        let cross = l.iter().zip(r).map(|(l, r)| l * r).sum::<f64>() / l.len() as f64;
-        let correlation = cross / (mean_square(l) * mean_square(r)).sqrt();
-        let mono: Vec<f64> = l.iter().zip(r).map(|(l, r)| 0.5 * (l + r)).collect();
-        let mono_db = db(mean_square(&mono)) - db(0.5 * (mean_square(l) + mean_square(r)));
+        let (correlation, mono_db) = stereo(&l, &r);
         println!("{kind} key {key}: L/R correlation {correlation:.3}, mono sum {mono_db:.1} dB");
         // The piano's pair over its 1.6 m^2 board hears a wide image; a small
         // box (the clavichord's) radiates mostly through its volume modes and
@@ -188,12 +194,7 @@ fn print_stereo_for_every_perspective() {
             let mut line = format!("{kind} {}:", perspective.name());
             for key in [*range.start() + 7, (*range.start() + *range.end()) / 2, *range.end() - 7] {
                 let (l, r) = note(&mut s, key, 0.7, 1.0);
-                let (a, b) = ((0.1 * FS) as usize, l.len());
-                let (l, r) = (&l[a..b], &r[a..b]);
-                let cross = l.iter().zip(r).map(|(l, r)| l * r).sum::<f64>() / l.len() as f64;
-                let c = cross / (mean_square(l) * mean_square(r)).sqrt();
-                let mono: Vec<f64> = l.iter().zip(r).map(|(l, r)| 0.5 * (l + r)).collect();
-                let m = db(mean_square(&mono)) - db(0.5 * (mean_square(l) + mean_square(r)));
+                let (c, m) = stereo(&l, &r);
                 line += &format!(" {key}: {c:.2} {m:.1} dB;");
             }
             println!("{line}");

@@ -11,21 +11,14 @@ const FS: f64 = 48_000.0;
 /// dampers (the body has its own, tests/body.rs).
 fn synth(kind: InstrumentKind) -> Synth {
     let mut synth = Synth::new(Box::new(Instrument::build(&default_settings(kind, FS)).unwrap())).0;
-    synth.set_controls(BRIDGE);
+    synth.set_controls(bridge());
     synth
 }
 
 /// The default controls, heard as the bridge force.
-const BRIDGE: Controls = Controls {
-    touch_min: 0.0,
-    touch_max: 1.0,
-    touch_shape: 1.0,
-    polyphony: 64,
-    output_gain: 1.0,
-    bend_range_semitones: 2.0,
-    bebung: 0.25,
-    output: struck_engine::body::Output::BridgeForce,
-};
+fn bridge() -> Controls {
+    Controls { output: struck_engine::body::Output::BridgeForce, ..Controls::default() }
+}
 
 /// Render `seconds` with events given as (time in s, event), in host blocks of `block`.
 fn render(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize) -> Vec<f32> {
@@ -251,7 +244,7 @@ fn the_mod_wheel_softens_the_mallets() {
 #[test]
 fn polyphony_steals_the_quietest_released_key() {
     let mut s = synth(InstrumentKind::Santoor);
-    s.set_controls(Controls { polyphony: 2, ..BRIDGE });
+    s.set_controls(Controls { polyphony: 2, ..bridge() });
     let events = [
         (0.0, Event::NoteOn { key: 60, velocity: 1.0 }),
         (0.01, Event::NoteOn { key: 64, velocity: 0.2 }),
@@ -446,7 +439,7 @@ fn fine_peak(x: &[f32], guess_hz: f64) -> f64 {
 fn clavichord(voicing: Voicing) -> Synth {
     let settings = InstrumentSettings { voicing, ..default_settings(InstrumentKind::Clavichord, FS) };
     let mut synth = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
-    synth.set_controls(BRIDGE);
+    synth.set_controls(bridge());
     synth
 }
 
@@ -476,7 +469,7 @@ fn bebung_bends_a_held_clavichord_note_smoothly() {
     let voicing = Voicing { unison_detune: 0.0, ..Voicing::default() };
     let events = [(0.0, Event::NoteOn { key, velocity: 0.8 }), (1.0, Event::Pressure { key, pressure: 1.0 })];
     let mut synth = clavichord(voicing);
-    synth.set_controls(Controls { bebung: 0.25, ..BRIDGE });
+    synth.set_controls(Controls { bebung: 0.25, ..bridge() });
     let out = render(&mut synth, 3.0, &events, 256);
     let before = fine_peak(window(&out, 0.2, 1.0), f_key);
     let after = fine_peak(window(&out, 1.2, 3.0), f_key);

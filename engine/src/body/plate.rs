@@ -341,9 +341,29 @@ pub fn modal_density(plate: &Plate, _f_hz: f64) -> f64 {
     0.5 * plate.area_m2() * (plate.mass_per_area() / plate.mean_stiffness()).sqrt()
 }
 
-/// Log-average (geometric mean) of |Re Y| over a
-/// band, sampled on `points` log-spaced frequencies: the Skudrzyk "skeleton" of
-/// the modal sum, s/kg.
+/// Geometric mean over a band (`points` log-spaced samples) of `measure`
+/// applied to the mobility (re, im), s/kg.
+fn log_mean_mobility(
+    plate: &Plate,
+    modes: &[BodyMode],
+    max_hz: f64,
+    point: (f64, f64),
+    band_hz: (f64, f64),
+    points: usize,
+    measure: impl Fn((f64, f64)) -> f64,
+) -> f64 {
+    let ratio = band_hz.1 / band_hz.0;
+    let sum: f64 = (0..points)
+        .map(|j| {
+            let f = band_hz.0 * ratio.powf((j as f64 + 0.5) / points as f64);
+            measure(mobility(plate, modes, max_hz, point, f)).max(1e-12).ln()
+        })
+        .sum();
+    (sum / points as f64).exp()
+}
+
+/// Log-average (geometric mean) of |Re Y| over a band, sampled on `points`
+/// log-spaced frequencies: the Skudrzyk "skeleton" of the modal sum, s/kg.
 pub fn log_mean_real_mobility(
     plate: &Plate,
     modes: &[BodyMode],
@@ -352,14 +372,7 @@ pub fn log_mean_real_mobility(
     band_hz: (f64, f64),
     points: usize,
 ) -> f64 {
-    let ratio = band_hz.1 / band_hz.0;
-    let sum: f64 = (0..points)
-        .map(|j| {
-            let f = band_hz.0 * ratio.powf((j as f64 + 0.5) / points as f64);
-            mobility(plate, modes, max_hz, point, f).0.abs().max(1e-12).ln()
-        })
-        .sum();
-    (sum / points as f64).exp()
+    log_mean_mobility(plate, modes, max_hz, point, band_hz, points, |(re, _)| re.abs())
 }
 
 /// Geometric mean of |Y| over a band (log-spaced samples), s/kg.
@@ -371,15 +384,7 @@ pub fn log_mean_abs_mobility(
     band_hz: (f64, f64),
     points: usize,
 ) -> f64 {
-    let ratio = band_hz.1 / band_hz.0;
-    let sum: f64 = (0..points)
-        .map(|j| {
-            let f = band_hz.0 * ratio.powf((j as f64 + 0.5) / points as f64);
-            let (re, im) = mobility(plate, modes, max_hz, point, f);
-            re.hypot(im).max(1e-12).ln()
-        })
-        .sum();
-    (sum / points as f64).exp()
+    log_mean_mobility(plate, modes, max_hz, point, band_hz, points, |(re, im)| re.hypot(im))
 }
 
 #[cfg(test)]

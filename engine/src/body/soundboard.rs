@@ -590,31 +590,3 @@ mod tests {
 }
 
 
-#[cfg(test)]
-mod timing {
-    use super::*;
-    use crate::body::boards::design;
-    use crate::design::InstrumentKind;
-
-    #[test]
-    #[ignore = "timing"]
-    fn body_cost() {
-        let board = design(InstrumentKind::Piano);
-        let mics = MicPlacement::default().positions(&board);
-        let mut body = Soundboard::build(&board, 48_000.0, &board.zone_points(), mics, 1.0);
-        let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
-        for (z, f) in forces.iter_mut().enumerate().take(4) {
-            for (t, v) in f.iter_mut().enumerate() {
-                *v = ((t * 7 + z * 13) % 17) as f64 - 8.0;
-            }
-        }
-        let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-        let blocks = 48_000 / CONTROL_BLOCK;
-        let start = std::time::Instant::now();
-        for _ in 0..blocks {
-            body.process(&forces, &mut l, &mut r);
-        }
-        let s = start.elapsed().as_secs_f64();
-        println!("{} modes: {:.2} ms per second of sound, {:.3} ns per mode-sample", body.mode_count(), s * 1e3, s * 1e9 / (48_000.0 * body.mode_count() as f64));
-    }
-}

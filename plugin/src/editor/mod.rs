@@ -150,17 +150,7 @@ pub(crate) fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &Par
 
 fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Instrument", |ui| {
-        ui.horizontal_wrapped(|ui| {
-            let current = params.instrument.kind.value();
-            for choice in InstrumentChoice::ALL {
-                let name = choice.kind().name();
-                if ui.selectable_label(current == choice, name).clicked() && current != choice {
-                    setter.begin_set_parameter(&params.instrument.kind);
-                    setter.set_parameter(&params.instrument.kind, choice);
-                    setter.end_set_parameter(&params.instrument.kind);
-                }
-            }
-        });
+        choice_row(ui, setter, &params.instrument.kind, InstrumentChoice::ALL, |c| c.kind().name());
     });
     group(ui, "Touch", |ui| {
         slider(ui, "Softest", &params.touch.min, setter);
@@ -205,27 +195,13 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Polyphony", &params.output.polyphony, setter);
         slider(ui, "Bend range", &params.output.bend_range, setter);
         slider(ui, "Level", &params.output.level_db, setter);
-        ui.horizontal_wrapped(|ui| {
-            let current = params.output.source.value();
-            for choice in [OutputChoice::Microphones, OutputChoice::BridgeForce] {
-                let name = match choice {
-                    OutputChoice::Microphones => "Microphones",
-                    OutputChoice::BridgeForce => "Bridge force",
-                };
-                if ui.selectable_label(current == choice, name).clicked() && current != choice {
-                    set(setter, &params.output.source, choice);
-                }
+        choice_row(ui, setter, &params.output.source, [OutputChoice::Microphones, OutputChoice::BridgeForce], |c| {
+            match c {
+                OutputChoice::Microphones => "Microphones",
+                OutputChoice::BridgeForce => "Bridge force",
             }
         });
-        ui.horizontal_wrapped(|ui| {
-            let current = params.output.perspective.value();
-            for choice in PerspectiveChoice::ALL {
-                let name = choice.perspective().name();
-                if ui.selectable_label(current == choice, name).clicked() && current != choice {
-                    set(setter, &params.output.perspective, choice);
-                }
-            }
-        });
+        choice_row(ui, setter, &params.output.perspective, PerspectiveChoice::ALL, |c| c.perspective().name());
         slider(ui, "Width", &params.output.width, setter);
     });
 }
@@ -239,12 +215,22 @@ pub(crate) fn set<P: Param>(setter: &ParamSetter, param: &P, value: P::Plain) {
 
 /// The temperament's choices as a row of buttons.
 pub(crate) fn temperament_row(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+    choice_row(ui, setter, &params.tuning.temperament, TemperamentChoice::ALL, |c| c.temperament().label());
+}
+
+/// A choice parameter as a row of buttons, `name` labelling each choice.
+fn choice_row<E: Enum + PartialEq + Copy + 'static>(
+    ui: &mut Ui,
+    setter: &ParamSetter,
+    param: &EnumParam<E>,
+    choices: impl IntoIterator<Item = E>,
+    name: impl Fn(E) -> &'static str,
+) {
     ui.horizontal_wrapped(|ui| {
-        let current = params.tuning.temperament.value();
-        for choice in TemperamentChoice::ALL {
-            let label = choice.temperament().label();
-            if ui.selectable_label(current == choice, label).clicked() && current != choice {
-                set(setter, &params.tuning.temperament, choice);
+        let current = param.value();
+        for choice in choices {
+            if ui.selectable_label(current == choice, name(choice)).clicked() && current != choice {
+                set(setter, param, choice);
             }
         }
     });

@@ -10,7 +10,7 @@
 
 use std::ops::Range;
 
-use crate::body::soundboard::ZoneShare;
+use crate::body::boards::ZoneShare;
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};

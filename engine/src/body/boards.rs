@@ -14,6 +14,17 @@ use std::ops::RangeInclusive;
 use super::plate::{self, BodyMode, Boundary, Plate, Ribs, Wood};
 use crate::design::InstrumentKind;
 
+/// The most zones a body's bridges are divided into.
+pub const MAX_ZONES: usize = 8;
+
+/// Where on the bridges a key's strings bear, as the body sees it: between two
+/// zones, with the share of its force each takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZoneShare {
+    pub zones: [usize; 2],
+    pub weights: [f64; 2],
+}
+
 /// Modal density a point on a board's bridge sees above the ribs' guiding
 /// frequency, /Hz (Boutillon & Ege 2013: 0.01-0.02 /Hz; "about 200 modes"
 /// in 0-10 kHz).
@@ -240,14 +251,14 @@ impl BodyDesign {
 
     /// The points the bridges are cut into for the running body: each bridge's
     /// ends, and two more between them on a bridge of 24 keys or more (in key
-    /// order along the bridge), at most [`super::soundboard::MAX_ZONES`].
+    /// order along the bridge), at most [`MAX_ZONES`].
     pub fn zone_points(&self) -> Vec<(f64, f64)> {
         self.bridges.iter().flat_map(|b| zone_fractions(b).iter().map(|&t| along_polyline(b.points, t)).collect::<Vec<_>>()).collect()
     }
 
     /// Which two zones `midi_key`'s strings bear between, and the share of the
     /// force each takes (linear along the bridge).
-    pub fn zone_share(&self, midi_key: u8) -> super::soundboard::ZoneShare {
+    pub fn zone_share(&self, midi_key: u8) -> ZoneShare {
         let key = self.bridge_key(midi_key);
         let mut first = 0;
         for bridge in &self.bridges {
@@ -257,11 +268,11 @@ impl BodyDesign {
                 let j = fractions.windows(2).position(|w| t <= w[1]).unwrap_or(fractions.len() - 2);
                 let (t0, t1) = (fractions[j], fractions[j + 1]);
                 let w1 = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
-                return super::soundboard::ZoneShare { zones: [first + j, first + j + 1], weights: [1.0 - w1, w1] };
+                return ZoneShare { zones: [first + j, first + j + 1], weights: [1.0 - w1, w1] };
             }
             first += fractions.len();
         }
-        super::soundboard::ZoneShare { zones: [0, 0], weights: [0.0, 0.0] }
+        ZoneShare { zones: [0, 0], weights: [0.0, 0.0] }
     }
 
     /// The key whose place on the bridges `midi_key` takes (clamped to the
@@ -582,7 +593,7 @@ mod tests {
         for i in InstrumentKind::ALL {
             let d = design(i);
             let zones = d.zone_points();
-            assert!(zones.len() <= crate::body::soundboard::MAX_ZONES, "{i:?}: {}", zones.len());
+            assert!(zones.len() <= MAX_ZONES, "{i:?}: {}", zones.len());
             for key in d.keys.clone() {
                 let share = d.zone_share(key);
                 assert!((share.weights[0] + share.weights[1] - 1.0).abs() < 1e-12, "{i:?} {key}");

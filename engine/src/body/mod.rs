@@ -18,7 +18,7 @@ pub mod radiation;
 pub mod soundboard;
 
 use crate::CONTROL_BLOCK;
-use soundboard::{MAX_ZONES, ZoneShare};
+use boards::{MAX_ZONES, ZoneShare};
 
 /// What the output is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -19,14 +19,11 @@ use multiversion::multiversion;
 use serde::{Deserialize, Serialize};
 use num_complex::Complex64;
 
-use super::boards::BodyDesign;
+use super::boards::{BodyDesign, MAX_ZONES};
 use super::plate::{BodyMode, shape_at};
 use super::radiation::{MicPosition, pressure_per_acceleration};
 use crate::CONTROL_BLOCK;
 use crate::modal_bank::{LANES, lane_sum};
-
-/// The most zones a body's bridges are divided into.
-pub const MAX_ZONES: usize = 8;
 
 /// Modes are carried up to this frequency (or 0.45 of the sample rate): above
 /// it a string's partials reach the microphones only through the modes' mass
@@ -111,14 +108,6 @@ impl MicPlacement {
 
 /// The least distance between a close pair's microphones, m.
 pub const PAIR_SPACING_M: f64 = 0.8;
-
-/// Where on the bridges a key's strings bear, as the body sees it: between two
-/// zones, with the share of its force each takes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ZoneShare {
-    pub zones: [usize; 2],
-    pub weights: [f64; 2],
-}
 
 /// Everything the running body needs, built off the audio thread.
 pub struct Soundboard {

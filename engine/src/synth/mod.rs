@@ -24,7 +24,8 @@ pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
 use crate::body::boards::{self, BodyDesign};
-use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MAX_ZONES, MicPlacement, Soundboard};
+use crate::body::boards::MAX_ZONES;
+use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::Key;

@@ -58,7 +58,8 @@ impl Performer {
 
     /// Render one block. Installs any instrument the workshop has finished, applies
     /// `controls`, translates the port's events at their sample positions and reports
-    /// keys that fell silent. Returns whether any key still sounds.
+    /// keys that fell silent. Returns whether anything still sounds (a key, or
+    /// the body ringing on after its keys).
     ///
     /// Allocates: no. Locks: no.
     pub fn process<S>(
@@ -89,7 +90,7 @@ impl Performer {
             self.translate(event, time as u32);
         }
         self.render(start, n, left, right, port);
-        self.synth.active_keys() > 0
+        self.synth.is_sounding()
     }
 
     fn render<S>(&mut self, from: usize, to: usize, left: &mut [f32], right: &mut [f32], port: &mut impl EventPort<S>) {

@@ -30,8 +30,10 @@ use crate::modal_bank::{LANES, lane_sum};
 /// line (the direct share).
 pub const BODY_TOP_HZ: f64 = 8_000.0;
 
-/// Below this level (full scale) with no force coming in, the body is at rest.
-const REST_LEVEL: f64 = 1e-9;
+/// Below this level (full scale: -120 dBFS, where a key falls silent too) with
+/// no force coming in, the body is at rest. The bound summed over modes is
+/// the sum of each mode's largest reach, so the body is quieter still.
+const REST_LEVEL: f64 = 1e-6;
 
 /// Where the pair of microphones listens from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -318,10 +320,11 @@ impl Soundboard {
                 return;
             }
         }
-        // At rest once nothing pushes and no mode could reach REST_LEVEL.
+        // At rest once nothing pushes and the modes together could not reach REST_LEVEL.
         if !pushed {
-            let largest = self.re.iter().zip(&self.im).flat_map(|(r, i)| r.iter().zip(i)).map(|(r, i)| r.abs() + i.abs());
-            if largest.fold(0.0, f64::max) * self.largest_weight < REST_LEVEL {
+            let reach: f64 =
+                self.re.iter().zip(&self.im).flat_map(|(r, i)| r.iter().zip(i)).map(|(r, i)| r.abs() + i.abs()).sum();
+            if reach * self.largest_weight < REST_LEVEL {
                 self.silence();
             }
         } else {

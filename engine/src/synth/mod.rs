@@ -368,6 +368,14 @@ impl Synth {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
     }
 
+    /// Whether anything still sounds: a key, or (heard through the
+    /// microphones) a body ringing on after its keys.
+    pub fn is_sounding(&self) -> bool {
+        let bodies = self.controls.output == Output::Microphones
+            && std::iter::once(&self.current).chain(self.outgoing.as_ref()).any(|i| !i.soundboard.is_resting());
+        self.active_keys() > 0 || bodies
+    }
+
     /// Modes the sounding keys are computing now (culled modes left out).
     pub fn running_modes(&self) -> usize {
         let outgoing = self.outgoing.as_ref().map_or(0, |o| o.active_keys().map(Key::running_modes).sum());

@@ -222,3 +222,27 @@ fn print_ring_evenness_of_every_instrument() {
         }
     }
 }
+
+#[test]
+#[ignore = "a measurement to look at, not a check"]
+fn print_crescendo_dips_of_every_instrument() {
+    for kind in InstrumentKind::ALL {
+        let mut s = synth(kind, Output::Microphones);
+        let range = kind.key_range();
+        let (lo, hi) = (*range.start(), *range.end());
+        let mut worst = (0u8, 0u8, 0.0f64);
+        for key in [lo + 5, (lo + hi) / 2, hi - 10, hi - 2] {
+            let mut last = f64::MIN;
+            for v in (8..=127).step_by(8).chain([127]) {
+                let (l, r) = note(&mut s, key, v as f32 / 127.0, 0.35);
+                let ring = ring_db(&l, &r);
+                if last - ring > worst.2 {
+                    worst = (key, v, last - ring);
+                }
+                last = ring;
+            }
+        }
+        println!("{kind}: largest fall {:.2} dB (key {}, velocity {})", worst.2, worst.0, worst.1);
+    }
+}
+

@@ -136,6 +136,7 @@ impl Preset {
             ("strike_position", v.strike_position),
             ("damping", v.damping),
             ("tangent_depth", v.tangent_depth),
+            ("board_size", v.board_size),
         ] {
             within(&format!("voicing.{name}"), value, 0.01, 100.0, "")?;
         }

@@ -221,6 +221,9 @@ pub struct OutputParams {
     /// The pair's stereo width, 0..1 of the perspective's own spacing.
     #[id = "wdth"]
     pub width: FloatParam,
+    /// The body's board: its length and width, as built = 1.
+    #[id = "bsiz"]
+    pub board: FloatParam,
 }
 
 /// The microphones' perspective as a host parameter (ids are permanent).
@@ -369,6 +372,7 @@ impl Default for StruckParams {
                 source: EnumParam::new("Output", OutputChoice::Microphones),
                 perspective: EnumParam::new("Microphones", PerspectiveChoice::Close),
                 width: percent_param("Stereo width", 1.0),
+                board: scale_param("Board size", 0.5, 2.0),
             },
             state_version: RwLock::new(STATE_VERSION),
             scala: RwLock::new(None),
@@ -393,6 +397,7 @@ impl StruckParams {
             unison_detune: self.strings.detune.value() as f64,
             tangent_depth: self.tangent.depth.value() as f64,
             fretted: self.tangent.fretted.value(),
+            board_size: self.output.board.value() as f64,
         }
     }
 
@@ -472,7 +477,7 @@ mod tests {
         let expected =
             ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
                 .into_iter()
-                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth"])
+                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth", "bsiz"])
                 .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();

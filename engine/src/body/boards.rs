@@ -285,6 +285,20 @@ impl BodyDesign {
         }
     }
 
+    /// The same body with its board `size` times as long and as wide (held to
+    /// 0.5..=2): the same wood, thickness and ribs, the bridges' mass grown with
+    /// the board's area and the box's air with its volume.
+    pub fn scaled(mut self, size: f64) -> Self {
+        let s = size.clamp(0.5, 2.0);
+        self.plate.length_m *= s;
+        self.plate.width_m *= s;
+        self.plate.bridge_mass_kg *= s * s;
+        if let Some(air) = &mut self.air {
+            air.volume_m3 *= s * s;
+        }
+        self
+    }
+
     /// A key in the middle of the compass.
     pub fn middle_key(&self) -> u8 {
         ((u16::from(*self.keys.start()) + u16::from(*self.keys.end())) / 2) as u8
@@ -619,6 +633,18 @@ mod tests {
         // Sum of 1/m per hertz above the split: the mean mobility's measure.
         let weight = |list: &[BodyMode]| list.iter().filter(|m| m.frequency_hz > split).map(|m| 1.0 / m.modal_mass_kg).sum::<f64>();
         assert!((weight(&running) / weight(&all) - 1.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn a_larger_board_rings_lower_and_holds_more_modes() {
+        let built = design(InstrumentKind::Piano);
+        let larger = design(InstrumentKind::Piano).scaled(1.25);
+        let (f, g) = (built.modes(1000.0), larger.modes(1000.0));
+        // Frequencies go as 1 / size^2 for the same wood and thickness (the bridges'
+        // mass grows as the area, so as the board's).
+        assert!((g[0].frequency_hz / f[0].frequency_hz - 1.0 / 1.5625).abs() < 0.02, "{} {}", f[0].frequency_hz, g[0].frequency_hz);
+        assert!(g.len() > f.len());
+        assert_eq!(design(InstrumentKind::Piano).scaled(1.0), built);
     }
 
     #[test]

@@ -215,6 +215,9 @@ pub struct Voicing {
     pub tangent_depth: f64,
     /// Clavichord: fretted, several keys sharing one pair of strings (the higher tangent wins).
     pub fretted: bool,
+    /// The body's board: its length and width (held to 0.5..=2); a larger board
+    /// is heavier and rings lower.
+    pub board_size: f64,
 }
 
 impl Default for Voicing {
@@ -228,6 +231,7 @@ impl Default for Voicing {
             unison_detune: 1.0,
             tangent_depth: 1.0,
             fretted: false,
+            board_size: 1.0,
         }
     }
 }

@@ -162,7 +162,7 @@ impl Instrument {
             let spec = design.strings.get(design.struck.start)?;
             spec.build().ok().map(|s| s.inharmonicity)
         });
-        let board = boards::design(settings.kind);
+        let board = boards::design(settings.kind).scaled(settings.voicing.board_size);
         let mics = settings.mics.positions(&board);
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
         let mut route = [None; 128];

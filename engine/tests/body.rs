@@ -246,3 +246,4 @@ fn print_crescendo_dips_of_every_instrument() {
     }
 }
 
+

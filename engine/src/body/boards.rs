@@ -13,6 +13,7 @@ use std::ops::RangeInclusive;
 
 use super::plate::{self, BodyMode, Boundary, Plate, Ribs, Wood};
 use crate::design::InstrumentKind;
+use crate::string::damping::AIR_DENSITY_KG_M3;
 
 /// The most zones a body's bridges are divided into.
 pub const MAX_ZONES: usize = 8;
@@ -32,8 +33,6 @@ pub const APPARENT_DENSITY_PER_HZ: f64 = 0.01;
 
 /// Speed of sound in air at 20 C, m/s.
 pub const SOUND_SPEED_M_S: f64 = 343.0;
-/// Density of air at 20 C, kg/m^3.
-pub const AIR_DENSITY_KG_M3: f64 = 1.2;
 
 /// Sitka spruce at 12 % moisture: static E_L 9.05 GPa, E_R 0.817 GPa, nu_LR 0.438
 /// and (ultrasonic) G_LR 1.196 GPa, Acta Acustica 2025 (aacus240113), Table 5,
@@ -273,6 +272,14 @@ impl BodyDesign {
             first += fractions.len();
         }
         ZoneShare { zones: [0, 0], weights: [0.0, 0.0] }
+    }
+
+    /// The two zone points `midi_key` bears between, with its share of the
+    /// force on each: how the running body hears the key.
+    pub fn share_points(&self, midi_key: u8) -> Vec<((f64, f64), f64)> {
+        let zones = self.zone_points();
+        let share = self.zone_share(midi_key);
+        share.zones.iter().zip(share.weights).filter_map(|(&z, w)| zones.get(z).map(|&p| (p, w))).collect()
     }
 
     /// The key whose place on the bridges `midi_key` takes (clamped to the

@@ -247,7 +247,7 @@ pub fn modes(plate: &Plate, max_hz: f64) -> Vec<BodyMode> {
 /// Mode shape at (x, y), fractions of the sides: sin(m pi x) sin(n pi y). The
 /// air mode (m = n = 0) couples through the top's net volume motion, so it takes
 /// the shape of the plate's (1, 1) mode.
-pub fn shape_at(mode: &BodyMode, _plate: &Plate, x: f64, y: f64) -> f64 {
+pub fn shape_at(mode: &BodyMode, x: f64, y: f64) -> f64 {
     let (m, n) = if mode.is_air() { (1, 1) } else { (mode.m, mode.n) };
     (f64::from(m) * PI * x).sin() * (f64::from(n) * PI * y).sin()
 }
@@ -277,7 +277,7 @@ pub fn mobility(plate: &Plate, modes: &[BodyMode], max_hz: f64, point: (f64, f64
     let w = 2.0 * PI * f_hz;
     let (mut re, mut im) = (0.0, 0.0);
     for mode in modes {
-        let phi = shape_at(mode, plate, point.0, point.1);
+        let phi = shape_at(mode, point.0, point.1);
         let (r, i) = modal_term(phi * phi / mode.modal_mass_kg, 2.0 * PI * mode.frequency_hz, mode.loss_factor, w);
         re += r;
         im += i;
@@ -341,41 +341,7 @@ pub fn modal_density(plate: &Plate, _f_hz: f64) -> f64 {
     0.5 * plate.area_m2() * (plate.mass_per_area() / plate.mean_stiffness()).sqrt()
 }
 
-/// Geometric mean over a band (`points` log-spaced samples) of `measure`
-/// applied to the mobility (re, im), s/kg.
-fn log_mean_mobility(
-    plate: &Plate,
-    modes: &[BodyMode],
-    max_hz: f64,
-    point: (f64, f64),
-    band_hz: (f64, f64),
-    points: usize,
-    measure: impl Fn((f64, f64)) -> f64,
-) -> f64 {
-    let ratio = band_hz.1 / band_hz.0;
-    let sum: f64 = (0..points)
-        .map(|j| {
-            let f = band_hz.0 * ratio.powf((j as f64 + 0.5) / points as f64);
-            measure(mobility(plate, modes, max_hz, point, f)).max(1e-12).ln()
-        })
-        .sum();
-    (sum / points as f64).exp()
-}
-
-/// Log-average (geometric mean) of |Re Y| over a band, sampled on `points`
-/// log-spaced frequencies: the Skudrzyk "skeleton" of the modal sum, s/kg.
-pub fn log_mean_real_mobility(
-    plate: &Plate,
-    modes: &[BodyMode],
-    max_hz: f64,
-    point: (f64, f64),
-    band_hz: (f64, f64),
-    points: usize,
-) -> f64 {
-    log_mean_mobility(plate, modes, max_hz, point, band_hz, points, |(re, _)| re.abs())
-}
-
-/// Geometric mean of |Y| over a band (log-spaced samples), s/kg.
+/// Geometric mean of |Y| over a band (`points` log-spaced samples), s/kg.
 pub fn log_mean_abs_mobility(
     plate: &Plate,
     modes: &[BodyMode],
@@ -384,7 +350,15 @@ pub fn log_mean_abs_mobility(
     band_hz: (f64, f64),
     points: usize,
 ) -> f64 {
-    log_mean_mobility(plate, modes, max_hz, point, band_hz, points, |(re, im)| re.hypot(im))
+    let ratio = band_hz.1 / band_hz.0;
+    let sum: f64 = (0..points)
+        .map(|j| {
+            let f = band_hz.0 * ratio.powf((j as f64 + 0.5) / points as f64);
+            let (re, im) = mobility(plate, modes, max_hz, point, f);
+            re.hypot(im).max(1e-12).ln()
+        })
+        .sum();
+    (sum / points as f64).exp()
 }
 
 #[cfg(test)]

@@ -19,7 +19,8 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
-use super::boards::{AIR_DENSITY_KG_M3, SOUND_SPEED_M_S};
+use super::boards::SOUND_SPEED_M_S;
+use crate::string::damping::AIR_DENSITY_KG_M3;
 use super::plate::{BodyMode, Plate};
 
 /// A microphone's position: metres from the board's corner along the grain (x)

@@ -225,11 +225,6 @@ impl Soundboard {
         self.modes
     }
 
-    /// How many zones its bridges are cut into.
-    pub fn zone_count(&self) -> usize {
-        self.zones
-    }
-
     /// Carry on ringing where `old` (the same body in tables being replaced) was.
     pub fn take_over(&mut self, old: &Soundboard) {
         if old.re.len() == self.re.len() && old.modes == self.modes {
@@ -347,7 +342,7 @@ fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: [
     let held = g * (pole - 1.0) / lambda;
     let mut shape = [0.0; MAX_ZONES];
     for (d, &(x, y)) in shape.iter_mut().zip(zone_points) {
-        *d = shape_at(mode, &board.plate, x, y);
+        *d = shape_at(mode, x, y);
     }
     let mut out = [Complex64::new(0.0, 0.0); 2];
     let mut direct = [[0.0; MAX_ZONES]; 2];
@@ -358,7 +353,7 @@ fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: [
         // state settling at -g F / lambda under a steady push, the two cancel.
         let share = (c * lambda * g).re;
         for (z, &(x, y)) in zone_points.iter().enumerate() {
-            direct[mic][z] = share * shape_at(mode, &board.plate, x, y);
+            direct[mic][z] = share * shape_at(mode, x, y);
         }
     }
     PlannedMode { pole, held, shape, out, direct }
@@ -484,25 +479,19 @@ fn run_chain<const G: usize, const Z: usize>(
 
 /// A body's modes with what each microphone hears of them: for working out,
 /// off the audio thread, what the body does to a string's partial.
-pub struct HeardModes<'a> {
-    board: &'a BodyDesign,
+pub struct HeardModes {
     modes: Vec<BodyMode>,
     /// Pressure per unit modal acceleration at each microphone, per mode.
     radiation: Vec<[f64; 2]>,
 }
 
-impl<'a> HeardModes<'a> {
+impl HeardModes {
     /// `board`'s running modes up to `top_hz`, heard at `mics`.
-    pub fn new(board: &'a BodyDesign, top_hz: f64, mics: [MicPosition; 2]) -> Self {
+    pub fn new(board: &BodyDesign, top_hz: f64, mics: [MicPosition; 2]) -> Self {
         let modes = board.running_modes(top_hz);
         let radiation =
             modes.iter().map(|m| mics.map(|mic| pressure_per_acceleration(&board.plate, m, mic))).collect();
-        Self { board, modes, radiation }
-    }
-
-    /// The modes.
-    pub fn modes(&self) -> &[BodyMode] {
-        &self.modes
+        Self { modes, radiation }
     }
 
     /// The pressure at each microphone per newton at `point` (fractions of
@@ -519,7 +508,7 @@ impl<'a> HeardModes<'a> {
         for (mode, radiation) in self.modes.iter().zip(&self.radiation) {
             let wk = 2.0 * PI * mode.frequency_hz;
             let phi: f64 =
-                points.iter().map(|&((x, y), share)| share * shape_at(mode, &self.board.plate, x, y)).sum();
+                points.iter().map(|&((x, y), share)| share * shape_at(mode, x, y)).sum();
             // Modal acceleration per newton: -omega^2 phi / (m (wk^2 - omega^2 + i eta wk omega)).
             let acc = -omega * omega * phi
                 / (mode.modal_mass_kg * Complex64::new(wk * wk - omega * omega, mode.loss_factor * wk * omega));

@@ -13,7 +13,8 @@
 
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-pub mod event;
+mod body_voicing;
+mod event;
 pub mod scope;
 mod workshop;
 
@@ -23,8 +24,7 @@ pub use event::{Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
-use crate::body::boards::{self, BodyDesign};
-use crate::body::boards::MAX_ZONES;
+use crate::body::boards;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
@@ -32,9 +32,14 @@ use crate::key::Key;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
+use body_voicing::{heard_pa_per_n, voice_through_body};
 use scope::ScopeWriter;
 
 pub use crate::CONTROL_BLOCK;
+
+/// The velocity (0..=1) each instrument's level scale is measured at: a key's
+/// ringing 50-300 ms after a note-on at this velocity is what the scale evens.
+pub const LEVEL_VELOCITY: f64 = 0.7;
 /// A key whose output can no longer exceed this (-120 dBFS) stops computing.
 pub const SILENCE: f64 = 1e-6;
 /// A stolen key fades out over this long, s.
@@ -196,9 +201,10 @@ impl Instrument {
         let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
         let mut soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
         let loudest = settings.kind.touch_range().max();
+        let ringing = Controls::default().touch(settings.kind.touch_range(), LEVEL_VELOCITY);
         for (k, key) in keys.iter_mut().enumerate() {
             if let Some(key) = key {
-                let voicing = voice_through_body(key, k as u8, loudest, &board, &heard, &mut soundboard);
+                let voicing = voice_through_body(key, k as u8, ringing, loudest, &board, &heard, &mut soundboard);
                 key.bear_on(board.zone_share(k as u8), voicing);
             }
         }
@@ -213,15 +219,15 @@ impl Instrument {
         })
     }
 
-    /// The body's modes (for the lab and the live view).
-    pub fn body_mode_count(&self) -> usize {
-        self.soundboard.mode_count()
-    }
-
     /// Add what `output` hears of this stretch to `left` and `right`.
     fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64]) {
         match output {
             Output::BridgeForce => {
+                // The body is not heard: it does not ring on either (heard again, it
+                // starts from rest).
+                if !self.soundboard.is_resting() {
+                    self.soundboard.silence();
+                }
                 let (l, r) = self.bridge.panned();
                 left.iter_mut().zip(l).for_each(|(o, v)| *o += v);
                 right.iter_mut().zip(r).for_each(|(o, v)| *o += v);
@@ -368,11 +374,9 @@ impl Synth {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
     }
 
-    /// Whether anything still sounds: a key, or (heard through the
-    /// microphones) a body ringing on after its keys.
+    /// Whether anything still sounds: a key, or a body ringing on after its keys.
     pub fn is_sounding(&self) -> bool {
-        let bodies = self.controls.output == Output::Microphones
-            && std::iter::once(&self.current).chain(self.outgoing.as_ref()).any(|i| !i.soundboard.is_resting());
+        let bodies = std::iter::once(&self.current).chain(self.outgoing.as_ref()).any(|i| !i.soundboard.is_resting());
         self.active_keys() > 0 || bodies
     }
 
@@ -592,11 +596,7 @@ impl Synth {
             }
         }
         // The outgoing instrument leaves once its keys are silent and its body has rung out.
-        let heard_as_bridge_force = self.controls.output == Output::BridgeForce;
-        if let Some(old) = self
-            .outgoing
-            .take_if(|o| o.active_keys().next().is_none() && (heard_as_bridge_force || o.soundboard.is_resting()))
-        {
+        if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none() && o.soundboard.is_resting()) {
             self.retire(old);
         }
         if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {
@@ -633,120 +633,6 @@ impl Synth {
             self.scope.sample(0.5 * (l + rr) as f32);
         }
     }
-}
-
-/// How loud a key's partials come through the body, Pa/N: the pressure per
-/// newton where the key bears on the bridge, power-averaged over both
-/// microphones and over a whole tone around each of its first six partials
-/// (where they sound, give or take their stretch and the unison's spread), the
-/// partials weighted 1/n^4, as the ring of a struck string's bridge force
-/// falls off. A key is voiced by it as a technician voices one by ear.
-fn heard_pa_per_n(board: &BodyDesign, heard: &HeardModes, midi_key: u8, f1_hz: f64) -> f64 {
-    // The running body hears a key through the two zones it bears between.
-    let zones = board.zone_points();
-    let share = board.zone_share(midi_key);
-    let points: Vec<((f64, f64), f64)> =
-        share.zones.iter().zip(share.weights).filter_map(|(&z, w)| zones.get(z).map(|&p| (p, w))).collect();
-    let (mut power, mut weights) = (0.0, 0.0);
-    for n in 1..=6 {
-        let weight = 1.0 / (n * n * n * n) as f64;
-        let steps = 8;
-        let band = (0..steps)
-            .map(|i| {
-                let f = n as f64 * f1_hz * 2f64.powf((i as f64 / (steps - 1) as f64 - 0.5) / 6.0);
-                let [l, r] = heard.transfer_spread_pa_per_n(&points, f);
-                0.5 * (l.norm_sqr() + r.norm_sqr())
-            })
-            .sum::<f64>()
-            / steps as f64;
-        power += weight * band;
-        weights += weight;
-    }
-    (power / weights).sqrt()
-}
-
-/// The loudest touch's peak through the microphones is held at or below this,
-/// dBFS: the -1 dBFS the instruments promise, less a dB for what the short probe
-/// of each key misses (a later peak of its tone).
-const MIC_PEAK_CEILING_DBFS: f64 = -2.0;
-
-/// How long a key's loudest strike is played when it is voiced, s: the hammer
-/// has left every string by then, and the strike's peak has passed.
-const PROBE_S: f64 = 0.008;
-
-/// The most partials of a key weighed through the body when it is voiced.
-const PROBE_PARTIALS: usize = 40;
-
-/// How much louder the body hears `key` than the bridge-force output does:
-/// its loudest strike is played alone, and what its strings then ring with,
-/// partial by partial, is weighed through the body (the ring 50-300 ms after
-/// the strike, each partial decaying at its own rate, the strings of a unison
-/// adding in power) against what the bridge-force output would ring with at
-/// the key's ringing gain: so each key rings through the microphones where the
-/// instrument's level scale puts it, whatever the body does at its partials.
-/// Then, if the strike's first milliseconds through the body would peak above
-/// [`MIC_PEAK_CEILING_DBFS`], the key is turned down until they do not (the
-/// hammer's push on the bridge, which the bridge-force output caps, reaches the
-/// microphones only through the body's response to it).
-fn voice_through_body(
-    key: &mut Key,
-    midi_key: u8,
-    loudest: Touch,
-    board: &BodyDesign,
-    heard_modes: &HeardModes,
-    soundboard: &mut Soundboard,
-) -> f64 {
-    let fs = 1.0 / soundboard.step_s();
-    let mut force = vec![0.0; (PROBE_S * fs) as usize];
-    let partials = key.probe(loudest, &mut force);
-    let share = board.zone_share(midi_key);
-    let zones = board.zone_points();
-    let points: Vec<((f64, f64), f64)> =
-        share.zones.iter().zip(share.weights).filter_map(|(&z, w)| zones.get(z).map(|&p| (p, w))).collect();
-    // Mean of exp(-2 sigma t) over the ring's window, t from the probe's end.
-    let (from, to) = (0.05 - PROBE_S, 0.3 - PROBE_S);
-    let held = |sigma: f64| {
-        if sigma * (to - from) < 1e-9 { 1.0 } else { ((-2.0 * sigma * from).exp() - (-2.0 * sigma * to).exp()) / (2.0 * sigma * (to - from)) }
-    };
-    // The strongest partials, as many as carry all but a thousandth of the ring.
-    let mut ringing: Vec<(f64, f64)> =
-        partials.iter().filter(|p| p.2 > 0.0).map(|&(a, sigma, f)| (0.5 * a * a * held(sigma), f)).collect();
-    ringing.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let strongest = ringing.first().map_or(0.0, |p| p.0);
-    let (mut bridge, mut heard) = (0.0, 0.0);
-    for &(power, f_hz) in ringing.iter().take(PROBE_PARTIALS) {
-        if power < 1e-3 * strongest {
-            break;
-        }
-        let [l, r] = heard_modes.transfer_spread_pa_per_n(&points, f_hz);
-        bridge += power;
-        heard += power * 0.5 * (l.norm_sqr() + r.norm_sqr()) * soundboard.gain().powi(2);
-    }
-    let mut voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
-    // The strike's first milliseconds through the body, at that voicing.
-    soundboard.silence();
-    let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
-    let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-    let mut peak = 0.0f64;
-    for chunk in force.chunks(CONTROL_BLOCK) {
-        for zone in &mut zone_forces {
-            zone.fill(0.0);
-        }
-        for (&z, w) in share.zones.iter().zip(share.weights) {
-            for (t, f) in chunk.iter().enumerate() {
-                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * voicing;
-            }
-        }
-        let n = chunk.len();
-        soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
-        peak = left[..n].iter().chain(&right[..n]).fold(peak, |m, v| m.max(v.abs()));
-    }
-    soundboard.silence();
-    let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-    if peak > ceiling {
-        voicing *= ceiling / peak;
-    }
-    voicing
 }
 
 /// The output gain's per-sample glide coefficient: a 10 ms time constant.

@@ -11,6 +11,7 @@
 use std::ops::Range;
 
 use crate::body::boards::ZoneShare;
+use crate::body::load::BoardLoad;
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};
@@ -111,9 +112,15 @@ pub(crate) struct Key {
 }
 
 impl Key {
-    /// Build every table the key will need, for touches up to `touch.max()`.
+    /// Build every table the key will need, for touches up to `touch.max()`,
+    /// its strings loaded by `board` (None: by the design's resistive bridge).
     /// Allocates; off the audio thread.
-    pub fn build(design: KeyDesign, sample_rate_hz: f64, touch: TouchRange) -> Result<Self, StringError> {
+    pub fn build(
+        design: KeyDesign,
+        sample_rate_hz: f64,
+        touch: TouchRange,
+        board: Option<&BoardLoad>,
+    ) -> Result<Self, StringError> {
         let mut notes = vec![Note {
             midi_key: design.midi_key,
             struck: design.struck.clone(),
@@ -129,7 +136,12 @@ impl Key {
             substeps: None,
         }));
         notes.truncate(MAX_NOTES);
-        let modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
+        let mut modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
+        if let Some(board) = board {
+            for string in &mut modes {
+                board.load(design.midi_key, design.resistive_bridge, string);
+            }
+        }
         // Each hammer's strikes measured on the last string it reaches, with its
         // share of the hammer (as `press` splits it).
         for note in &mut notes {

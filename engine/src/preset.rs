@@ -141,6 +141,7 @@ impl Preset {
             within(&format!("voicing.{name}"), value, 0.01, 100.0, "")?;
         }
         within("voicing.unison_detune", v.unison_detune, 0.0, 100.0, "")?;
+        within("voicing.board_irregularity", v.board_irregularity, 0.0, 1.0, "")?;
         let c = &self.controls;
         within("controls.touch_min", c.touch_min, 0.0, 1.0, "")?;
         within("controls.touch_max", c.touch_max, 0.0, 1.0, "")?;
@@ -163,7 +164,9 @@ impl Preset {
             sample_rate_hz,
             tuning: self.tuning.clone(),
             mics: self.mics,
+            strings_on_body: true,
         }
+        .heard_through(self.controls.output)
     }
 }
 

@@ -52,6 +52,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
         sample_rate_hz: fs,
         tuning: Default::default(),
         mics: Default::default(),
+        strings_on_body: true,
     };
     let (mut synth, _scope) = Synth::new(Box::new(Instrument::build(&first).unwrap()));
     // What the "host" wants built: changed from the audio loop below, read by the workshop.
@@ -66,7 +67,14 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             fretted: code / kinds / 3 % 2 == 1,
             ..Voicing::default()
         };
-        Some(InstrumentSettings { kind, voicing, sample_rate_hz: fs, tuning: Default::default(), mics: Default::default() })
+        Some(InstrumentSettings {
+            kind,
+            voicing,
+            sample_rate_hz: fs,
+            tuning: Default::default(),
+            mics: Default::default(),
+            strings_on_body: code.is_multiple_of(2),
+        })
     });
 
     let mut rng = Rng::new(0x5eed_1234_abcd);

@@ -2,8 +2,9 @@
 
 use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
 use struck_engine::synth::{
-    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop, default_settings,
+    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop,
 };
+use struck_engine::body::Output;
 
 const FS: f64 = 48_000.0;
 
@@ -17,7 +18,13 @@ fn synth(kind: InstrumentKind) -> Synth {
 
 /// The default controls, heard as the bridge force.
 fn bridge() -> Controls {
-    Controls { output: struck_engine::body::Output::BridgeForce, ..Controls::default() }
+    Controls { output: Output::BridgeForce, ..Controls::default() }
+}
+
+/// The default settings for the bridge-force output: strings on the seed's
+/// resistive bridge.
+fn default_settings(kind: InstrumentKind, fs: f64) -> InstrumentSettings {
+    struck_engine::synth::default_settings(kind, fs).heard_through(Output::BridgeForce)
 }
 
 /// Render `seconds` with events given as (time in s, event), in host blocks of `block`.

@@ -224,6 +224,9 @@ pub struct OutputParams {
     /// The body's board: its length and width, as built = 1.
     #[id = "bsiz"]
     pub board: FloatParam,
+    /// How much of the board's resonances the strings feel.
+    #[id = "birr"]
+    pub irregularity: FloatParam,
 }
 
 /// The microphones' perspective as a host parameter (ids are permanent).
@@ -373,6 +376,7 @@ impl Default for StruckParams {
                 perspective: EnumParam::new("Microphones", PerspectiveChoice::Close),
                 width: percent_param("Stereo width", 1.0),
                 board: scale_param("Board size", 0.5, 2.0),
+                irregularity: percent_param("Board irregularity", 0.5),
             },
             state_version: RwLock::new(STATE_VERSION),
             scala: RwLock::new(None),
@@ -398,6 +402,7 @@ impl StruckParams {
             tangent_depth: self.tangent.depth.value() as f64,
             fretted: self.tangent.fretted.value(),
             board_size: self.output.board.value() as f64,
+            board_irregularity: self.output.irregularity.value() as f64,
         }
     }
 
@@ -409,7 +414,9 @@ impl StruckParams {
             sample_rate_hz,
             tuning: self.tuning(),
             mics: self.mics(),
+            strings_on_body: true,
         }
+        .heard_through(self.output.source.value().output())
     }
 
     /// Where the body's microphones listen from.
@@ -477,7 +484,7 @@ mod tests {
         let expected =
             ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
                 .into_iter()
-                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth", "bsiz"])
+                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
                 .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();

@@ -13,6 +13,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod boards;
+pub mod load;
 pub mod plate;
 pub mod radiation;
 pub mod soundboard;

@@ -254,7 +254,7 @@ pub fn shape_at(mode: &BodyMode, x: f64, y: f64) -> f64 {
 
 /// One mode's contribution to the drive-point mobility at angular frequency w:
 /// i w phi^2 / (m (wk^2 - w^2 + i eta wk w)), returned as (re, im).
-fn modal_term(phi2_over_m: f64, wk: f64, eta: f64, w: f64) -> (f64, f64) {
+pub fn modal_term(phi2_over_m: f64, wk: f64, eta: f64, w: f64) -> (f64, f64) {
     let a = wk * wk - w * w;
     let b = eta * wk * w;
     let den = a * a + b * b;

@@ -245,6 +245,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         struck: 0..STRINGS,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
+        resistive_bridge: LOSSES.resistive_bridge(voicing),
         exciter: ExciterDesign::Tangent { displacement_m, stretch_per_m2: stretch },
         damper: Some(damper(damped_60_db_s, DAMPER_RATE_PER_HZ_S, f1_hz, DAMPER_TRAVEL_S)),
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),

@@ -11,6 +11,7 @@ use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
 use super::{DamperDesign, Voicing, key_frequency_hz};
+use crate::body::load::ResistiveBridge;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::{Damping, LossModel, PhysicalLoss};
 use crate::string::{Mass, StringSpec};
@@ -146,6 +147,14 @@ impl TangentLeak {
         let (d, m) = (self.resistance_ns_m, self.mass_kg);
         let lost = 4.0 * z0 * (d + z0) / ((d + 2.0 * z0).powi(2) + (omega_rad_s * m).powi(2));
         lost * c / (2.0 * length_m * omega_rad_s)
+    }
+}
+
+impl Losses {
+    /// The resistive bridge these losses put under the strings, with the
+    /// voicing's damping factor.
+    pub(super) fn resistive_bridge(&self, voicing: &Voicing) -> ResistiveBridge {
+        ResistiveBridge { admittance_s_kg: self.bridge_admittance_s_kg, loss_scale: voicing.damping.max(0.0) }
     }
 }
 
@@ -502,7 +511,8 @@ mod tests {
         ];
         for (kind, level, short_from) in cases {
             let target = level.ring_target_dbfs;
-            let instrument = Instrument::build(&default_settings(kind, SAMPLE_RATE_HZ)).unwrap();
+            let settings = default_settings(kind, SAMPLE_RATE_HZ).heard_through(crate::body::Output::BridgeForce);
+            let instrument = Instrument::build(&settings).unwrap();
             let (mut synth, _) = Synth::new(Box::new(instrument));
             // The level scale is the bridge-force output's (the body's microphones are voiced from it).
             synth.set_controls(crate::synth::Controls { output: crate::body::Output::BridgeForce, ..Default::default() });

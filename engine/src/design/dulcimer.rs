@@ -290,6 +290,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         struck: 0..STRINGS,
         shared,
         bridge_coupling_s_kg,
+        resistive_bridge: LOSSES.resistive_bridge(voicing),
         damper: None,
         gain_per_n: LEVEL.course_gain_per_n(&played, peak_n, pan),
         ring_gain_per_n: LEVEL.course_ring_gain_per_n(&played, peak_n),

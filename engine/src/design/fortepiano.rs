@@ -114,6 +114,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         struck: 0..row.strings,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
+        resistive_bridge: losses.resistive_bridge(voicing),
         exciter: row.hammer(voicing),
         // 60 dB in 0.35 s at F1 shortening to 0.12 s at G6: light, quick dampers.
         damper: Some(damper(0.35 * (0.12f64 / 0.35).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.012)),

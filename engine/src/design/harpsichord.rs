@@ -141,6 +141,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         struck: 0..1,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
+        resistive_bridge: LOSSES.resistive_bridge(voicing),
         // The jack's cloth damper: 60 dB in 0.2 s.
         damper: Some(damper(0.2, 5.0e-3, f1_hz, 0.01)),
         gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),

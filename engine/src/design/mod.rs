@@ -14,6 +14,7 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use crate::exciter::hammer::contact::ContactLaw;
+use crate::body::load::ResistiveBridge;
 use crate::string::StringSpec;
 
 mod cimbalom;
@@ -218,6 +219,10 @@ pub struct Voicing {
     /// The body's board: its length and width (held to 0.5..=2); a larger board
     /// is heavier and rings lower.
     pub board_size: f64,
+    /// How much of the board's resonances the strings feel (0..=1): 0 loads them
+    /// with the board's smooth mean, 1 with every resonance (partials on one die
+    /// fast). The radiated sound keeps every resonance either way.
+    pub board_irregularity: f64,
 }
 
 impl Default for Voicing {
@@ -232,6 +237,7 @@ impl Default for Voicing {
             tangent_depth: 1.0,
             fretted: false,
             board_size: 1.0,
+            board_irregularity: 0.5,
         }
     }
 }
@@ -295,6 +301,9 @@ pub struct KeyDesign {
     /// their summed force and carries every string's end with it (0: the strings
     /// are not coupled).
     pub bridge_coupling_s_kg: f64,
+    /// The resistive bridge its strings' losses were set with: what the body's
+    /// admittance takes the place of when the strings bear on the body.
+    pub resistive_bridge: ResistiveBridge,
     /// None: no damper (santoor, dulcimer).
     pub damper: Option<DamperDesign>,
     /// Output gain from bridge force (N) to a full-scale sample.

@@ -112,6 +112,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         struck: 0..STRINGS,
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
+        resistive_bridge: LOSSES.resistive_bridge(voicing),
         exciter: ExciterDesign::Hammer {
             mass_kg: mallet_mass_kg * voicing.hammer_mass,
             law: voiced_law(law, voicing),

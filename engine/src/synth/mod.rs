@@ -25,6 +25,7 @@ pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
 use crate::body::boards;
+use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
@@ -73,6 +74,23 @@ pub struct InstrumentSettings {
     /// Where the body's microphones listen from.
     #[serde(default)]
     pub mics: MicPlacement,
+    /// Whether the strings bear on the body (their partials lose energy into it
+    /// and are pulled in pitch by it, as its admittance says), or on the seed's
+    /// rigid, resistive bridge: what [`Output::BridgeForce`] stands for.
+    #[serde(default = "bear_on_body")]
+    pub strings_on_body: bool,
+}
+
+fn bear_on_body() -> bool {
+    true
+}
+
+impl InstrumentSettings {
+    /// These settings for an instrument heard through `output`: the strings
+    /// bear on the body when the microphones hear it.
+    pub fn heard_through(self, output: Output) -> Self {
+        Self { strings_on_body: output == Output::Microphones, ..self }
+    }
 }
 
 /// Why an instrument could not be built.
@@ -169,6 +187,7 @@ impl Instrument {
         });
         let board = boards::design(settings.kind).scaled(settings.voicing.board_size);
         let mics = settings.mics.positions(&board);
+        let load = settings.strings_on_body.then(|| BoardLoad::new(&board, settings.voicing.board_irregularity));
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
         let mut route = [None; 128];
         for design in designs {
@@ -176,7 +195,7 @@ impl Instrument {
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
             let design = tuned(design, &frequencies_hz);
             {
-                match Key::build(design, fs, settings.kind.touch_range()) {
+                match Key::build(design, fs, settings.kind.touch_range(), load.as_ref()) {
                     Ok(key) => {
                         for (note, k) in key.note_keys() {
                             route[k as usize & 127] = Some((midi_key, note as u8));
@@ -649,6 +668,7 @@ pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> Instrument
         sample_rate_hz,
         tuning: TuningSettings::default(),
         mics: MicPlacement::default(),
+        strings_on_body: true,
     }
 }
 

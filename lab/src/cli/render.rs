@@ -169,7 +169,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .find(|p| p.name().eq_ignore_ascii_case(name))
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
-    let settings = Preset { instrument: Some(kind), tuning, mics, ..preset.clone() }.settings(fs_hz);
+    let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
         (Some(path), _) => {
             Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))

@@ -217,6 +217,7 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.strings.damping, v.damping as f32);
     set(setter, &params.strings.detune, v.unison_detune as f32);
     set(setter, &params.output.board, v.board_size as f32);
+    set(setter, &params.output.irregularity, v.board_irregularity as f32);
     set(setter, &params.tangent.depth, v.tangent_depth as f32);
     set(setter, &params.tangent.fretted, v.fretted);
     let c = &preset.controls;

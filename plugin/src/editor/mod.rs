@@ -204,6 +204,7 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         choice_row(ui, setter, &params.output.perspective, PerspectiveChoice::ALL, |c| c.perspective().name());
         slider(ui, "Width", &params.output.width, setter);
         slider(ui, "Board size", &params.output.board, setter);
+        slider(ui, "Irregularity", &params.output.irregularity, setter);
     });
 }
 

@@ -1,0 +1,234 @@
+//! The body's load on the strings: each partial of a string loses energy into
+//! the board, and is pulled in pitch by it, through the board's drive-point
+//! admittance Y(f) at the string's own bridge point (Gough 1981; Euphonics 7.2).
+//!
+//! A string ending on a bridge of admittance Y has the complex frequency of
+//! its mode n moved by eps_n = w_n^2 Y(f_n) / (2 m_n omega_n^2) (w_n the mode's
+//! bridge weight, m_n its modal mass; T Y / L for a flexible string): Re eps_n
+//! adds to the mode's decay rate, Im eps_n lowers its angular frequency (a
+//! spring-like board, Im Y > 0, flattens it; a mass-like one sharpens it).
+//! The partial's loss therefore follows the board's resonances: a partial on a
+//! resonance dies fast, one between two rings on.
+//!
+//! The level is the design's: each instrument's strings were given the decay
+//! of a resistive bridge of sourced Re Y (`design`), and the body's admittance
+//! is scaled, frequency by frequency, so that its smooth (Skudrzyk) mean at
+//! the bridge equals that value. The board model's own mean (1.2e-3 s/kg for
+//! the piano, within Wogram's and Conklin's measurements) would halve the
+//! piano's sustain, which Weinreich's decay rates do not support: a bridge
+//! moves less than the bare board under it. And the model's mean rises above
+//! the ribs' guiding frequency as a resistance, where Wogram measured the
+//! board's impedance there as nearly a pure stiffness (phase near -90
+//! degrees): taken as loss, the rise would cut the top octave's sustain to a
+//! quarter. What the body brings the strings is the admittance's shape about
+//! its mean: its resonances and its reactance.
+//!
+//! The board's irregularity blends the modal admittance with the smooth mean
+//! (real, as an infinite plate's): a technician's answer to notes that fall on
+//! a strong resonance and die ("dead notes"). It shapes the strings' load only;
+//! the radiated sound keeps every resonance.
+//!
+//! A tuner tunes the string as it sits on the board: the first partial is put
+//! back where the design tuned it, so what moves is every other partial
+//! against it.
+
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+use std::f64::consts::PI;
+
+use super::boards::BodyDesign;
+use super::plate::{self, BodyMode};
+use crate::string::StringModes;
+
+/// Modes carried one by one in the admittance, at most up to this frequency,
+/// Hz (above it, or above a ribbed board's guiding frequency, the continuum).
+const EXPLICIT_TOP_HZ: f64 = 10_000.0;
+
+/// The continuum's admittance is read from a table log-spaced by this ratio
+/// (0.5 %, a quarter of the board's resonance bandwidth at 2 % loss).
+const TABLE_STEP: f64 = 0.005;
+const TABLE_FROM_HZ: f64 = 10.0;
+const TABLE_TO_HZ: f64 = 30_000.0;
+
+/// The resistive bridge a design set its strings' losses with, and the
+/// voicing's factor on every loss.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResistiveBridge {
+    /// Re Y, s/kg.
+    pub admittance_s_kg: f64,
+    /// The voicing's damping: every mode's loss times this.
+    pub loss_scale: f64,
+}
+
+/// A board's admittance at every key's bridge point, ready to load strings.
+pub struct BoardLoad<'a> {
+    board: &'a BodyDesign,
+    modes: Vec<BodyMode>,
+    /// ln of the continuum table's first frequency, and the table (re, im) s/kg.
+    residual: Vec<(f64, f64)>,
+    /// 0: the smooth mean only, 1: every resonance.
+    irregularity: f64,
+}
+
+impl<'a> BoardLoad<'a> {
+    /// The admittance of `board`, its resonances weighted by `irregularity`
+    /// (0..=1). Allocates; off the audio thread (a few milliseconds).
+    pub fn new(board: &'a BodyDesign, irregularity: f64) -> Self {
+        let top = board.plate.inter_rib_hz().unwrap_or(EXPLICIT_TOP_HZ).min(EXPLICIT_TOP_HZ);
+        let modes = board.modes(top);
+        let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
+        let residual =
+            (0..points).map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp())).collect();
+        Self { board, modes, residual, irregularity: irregularity.clamp(0.0, 1.0) }
+    }
+
+    /// The smooth (Skudrzyk) mean mobility at `f_hz`, s/kg: real, as an
+    /// infinite plate's.
+    fn smooth(&self, f_hz: f64) -> f64 {
+        plate::skeleton_mobility(&self.board.plate, f_hz)
+    }
+
+    /// The continuum above the explicit modes at `f_hz`, (re, im) s/kg.
+    fn residual(&self, f_hz: f64) -> (f64, f64) {
+        let x = ((f_hz / TABLE_FROM_HZ).ln() / TABLE_STEP).clamp(0.0, (self.residual.len() - 1) as f64);
+        let i = (x.floor() as usize).min(self.residual.len().saturating_sub(2));
+        let t = x - i as f64;
+        match (self.residual.get(i), self.residual.get(i + 1)) {
+            (Some(a), Some(b)) => (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t),
+            (Some(a), None) => *a,
+            _ => (0.0, 0.0),
+        }
+    }
+
+    /// The admittance at `midi_key`'s bridge point at `f_hz`, (re, im) s/kg,
+    /// resonances weighted by the irregularity.
+    pub fn admittance(&self, midi_key: u8, f_hz: f64) -> (f64, f64) {
+        let (x, y) = self.board.bridge_point(midi_key);
+        let w = 2.0 * PI * f_hz;
+        let (mut re, mut im) = self.residual(f_hz);
+        for mode in &self.modes {
+            let phi = plate::shape_at(mode, x, y);
+            let (r, i) = plate::modal_term(phi * phi / mode.modal_mass_kg, 2.0 * PI * mode.frequency_hz, mode.loss_factor, w);
+            re += r;
+            im += i;
+        }
+        let k = self.irregularity;
+        (k * re + (1.0 - k) * self.smooth(f_hz), k * im)
+    }
+
+    /// Load `string` (`midi_key`'s, set up with the losses of `resistive`):
+    /// every mode's bridge loss becomes the board's, scaled so the board's
+    /// smooth mean is the resistive bridge's Re Y, and its frequency moves
+    /// by the reactance; then the first partial is tuned back.
+    pub fn load(&self, midi_key: u8, resistive: ResistiveBridge, string: &mut StringModes) {
+        if !(resistive.admittance_s_kg > 0.0) {
+            return;
+        }
+        let z0 = string.impedance_ns_m();
+        let (mu, length) = (string.mass_per_length_kg_m, string.length_m);
+        let first = string.modes.first().map(|m| m.omega_rad_s);
+        let (tension, bending) = (string.tension_n, string.bending_stiffness_n_m2);
+        for mode in &mut string.modes {
+            let omega = mode.omega_rad_s;
+            let k = mode.wavenumber_rad_m;
+            let weight = tension * k + bending * k * k * k;
+            let f_hz = omega / (2.0 * PI);
+            let (re, im) = self.admittance(midi_key, f_hz);
+            let mean = self.smooth(f_hz);
+            let scale = if mean > 0.0 { resistive.admittance_s_kg / mean } else { 0.0 };
+            // eps = w^2 Y / (2 m_n omega^2), m_n = mu L / 2.
+            let per_admittance = weight * weight / (mu * length * omega * omega);
+            let resistive_rate = z0 * resistive.admittance_s_kg * omega / (mode.number as f64 * PI);
+            let sigma = mode.decay_rate_s() + resistive.loss_scale * (per_admittance * re * scale - resistive_rate);
+            mode.omega_rad_s = omega - per_admittance * im * scale;
+            mode.q = if sigma > 0.0 { mode.omega_rad_s / (2.0 * sigma) } else { f64::INFINITY };
+        }
+        if let (Some(before), Some(after)) = (first, string.modes.first().map(|m| m.omega_rad_s))
+            && after > 0.0
+        {
+            let ratio = before / after;
+            string.modes.iter_mut().for_each(|m| m.omega_rad_s *= ratio);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::boards::design;
+    use crate::design::InstrumentKind;
+    use crate::string::damping::{Damping, PhysicalLoss};
+    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
+
+    /// A piano A4 string whose losses hold a resistive bridge of `admittance_s_kg`.
+    fn a4(admittance_s_kg: f64) -> StringModes {
+        StringSpec {
+            length_m: 0.38,
+            tuning: Tuning::FirstPartialHz(440.0),
+            mass: Mass::SolidWire { diameter_m: 1.0e-3, density_kg_m3: 7850.0 },
+            stiffness: Stiffness::YoungsModulus { modulus_pa: 2.0e11, bending_diameter_m: 1.0e-3 },
+            damping: Damping::Physical(PhysicalLoss { internal_loss_factor: 3e-4, bridge_admittance_s_kg: admittance_s_kg }),
+            max_frequency_hz: 10_000.0,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap()
+    }
+
+    const RESISTIVE: ResistiveBridge = ResistiveBridge { admittance_s_kg: 5e-4, loss_scale: 1.0 };
+
+    /// Each partial's loss into the bridge over the resistive bridge's.
+    fn bridge_shares(loaded: &StringModes) -> Vec<f64> {
+        let (bare, resistive) = (a4(0.0), a4(RESISTIVE.admittance_s_kg));
+        loaded
+            .modes
+            .iter()
+            .zip(bare.modes.iter().zip(&resistive.modes))
+            .map(|(l, (b, r))| (l.decay_rate_s() - b.decay_rate_s()) / (r.decay_rate_s() - b.decay_rate_s()))
+            .collect()
+    }
+
+    #[test]
+    fn a_smooth_board_changes_nothing() {
+        let board = design(InstrumentKind::Piano);
+        let load = BoardLoad::new(&board, 0.0);
+        let mut s = a4(RESISTIVE.admittance_s_kg);
+        load.load(69, RESISTIVE, &mut s);
+        // The smooth mean is the resistive level at every frequency: every
+        // partial keeps its decay, but for the stiff string's larger bridge
+        // weight (the resistive formula is the flexible string's: a factor
+        // sqrt(1 + B n^2)), and its pitch.
+        let shares = bridge_shares(&s);
+        let b = s.inharmonicity;
+        for (n, v) in shares.iter().enumerate().map(|(i, v)| ((i + 1) as f64, v)) {
+            assert!((v / (1.0 + b * n * n).sqrt() - 1.0).abs() < 1e-3, "{shares:?}");
+        }
+        let plain = a4(RESISTIVE.admittance_s_kg);
+        assert!(s.modes.iter().zip(&plain.modes).all(|(a, b)| (a.omega_rad_s / b.omega_rad_s - 1.0).abs() < 1e-12));
+    }
+
+    #[test]
+    fn partials_decay_at_rates_that_follow_the_boards_resonances() {
+        let board = design(InstrumentKind::Piano);
+        let load = BoardLoad::new(&board, 1.0);
+        let mut s = a4(RESISTIVE.admittance_s_kg);
+        load.load(69, RESISTIVE, &mut s);
+        let shares = bridge_shares(&s);
+        let first: Vec<f64> = shares.iter().take(3).copied().collect();
+        let (lo, hi) = first.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+        println!("A4's first partials' bridge loss over the resistive bridge's: {first:?}");
+        assert!(hi / lo > 2.0 && lo > 0.0, "{first:?}");
+        assert!(s.modes.iter().all(|m| m.q > 0.5 && m.decay_rate_s().is_finite()));
+        // Pitch: the first partial stays; the others move by hundredths of a
+        // cent to cents.
+        assert!((s.modes[0].omega_rad_s / a4(RESISTIVE.admittance_s_kg).modes[0].omega_rad_s - 1.0).abs() < 1e-12);
+        let cents: Vec<f64> = s
+            .modes
+            .iter()
+            .zip(&a4(RESISTIVE.admittance_s_kg).modes)
+            .take(10)
+            .map(|(a, b)| 1200.0 * (a.omega_rad_s / b.omega_rad_s).log2())
+            .collect();
+        assert!(cents.iter().any(|c| c.abs() > 0.01) && cents.iter().all(|c| c.abs() < 10.0), "{cents:?}");
+    }
+}

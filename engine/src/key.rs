@@ -10,6 +10,8 @@
 
 use std::ops::Range;
 
+use num_complex::Complex64;
+
 use crate::body::boards::ZoneShare;
 use crate::body::load::BoardLoad;
 use crate::body::{Bridge, BridgePoint};
@@ -64,6 +66,11 @@ struct Note {
     substeps: Option<SubstepPlan>,
 }
 
+/// Per-sample step of a key's strike gain toward a new strike's regulation
+/// (a time constant of 256 samples, about 5 ms at 48 kHz: the new strike
+/// masks it).
+const STRIKE_GAIN_GLIDE: f64 = 1.0 / 256.0;
+
 pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
     midi_key: u8,
@@ -85,6 +92,11 @@ pub(crate) struct Key {
     /// How much louder the body hears it than the bridge-force output does (its
     /// ringing gain over the gain the bridge force's peak allows).
     body_boost: f64,
+    /// Its regulation: the gain of a strike by its touch (empty: 1), and the
+    /// gain now and where it glides to (the last strike's).
+    regulation: Vec<(f64, f64)>,
+    strike_gain: f64,
+    strike_gain_to: f64,
     // What the player is doing with it.
     /// Sounding (struck and not yet silent or faded out).
     active: bool,
@@ -185,6 +197,9 @@ impl Key {
             gain_per_n: design.gain_per_n,
             bridge_point: BridgePoint::panned(design.pan),
             body_boost: if design.gain_per_n > 0.0 { (design.ring_gain_per_n / design.gain_per_n).max(1.0) } else { 1.0 },
+            regulation: Vec::new(),
+            strike_gain: 1.0,
+            strike_gain_to: 1.0,
             active: false,
             held: 0,
             sounded: 0,
@@ -218,6 +233,12 @@ impl Key {
         self.body_boost
     }
 
+    /// Regulate it: a strike at touch t (in the touch's unit) is heard at the
+    /// gain `table` gives there (see `synth::body_voicing`).
+    pub fn regulate(&mut self, table: Vec<(f64, f64)>) {
+        self.regulation = table;
+    }
+
     /// Bear on the body's zones as `share` says, `voicing` times louder there
     /// than at its bridge-force gain.
     pub fn bear_on(&mut self, share: ZoneShare, voicing: f64) {
@@ -227,10 +248,10 @@ impl Key {
 
     /// Play its first note at `touch` alone for `force.len()` samples, writing
     /// the force it hands the bridge (at its output gain), and return what its
-    /// strings then ring with, mode by mode: (amplitude at output gain, decay
-    /// rate 1/s, frequency Hz). The key is left silent. Allocates; for voicing
-    /// the key through the body when the instrument is built.
-    pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<(f64, f64, f64)> {
+    /// strings then ring with, mode by mode: the force Re(z e^(lambda t)) at
+    /// output gain, as (z, lambda). The key is left silent. Allocates; for
+    /// voicing the key through the body when the instrument is built.
+    pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<(Complex64, Complex64)> {
         self.press(0, touch, false, 1.0, 1.0);
         for chunk in force.chunks_mut(CONTROL_BLOCK) {
             chunk.fill(0.0);
@@ -238,11 +259,16 @@ impl Key {
         }
         force.iter_mut().for_each(|f| *f *= self.gain_per_n);
         let gain = self.gain_per_n;
-        let partials =
-            self.strings.iter().flat_map(|s| s.bank().bridge_partials()).map(|(a, sigma, f)| (a * gain, sigma, f)).collect();
+        let partials = self.strings.iter().flat_map(|s| s.bank().bridge_partials()).map(|(z, lambda)| (z * gain, lambda)).collect();
         self.silence();
         self.sounded = 0;
         partials
+    }
+
+    /// Whether its exciter stays on the strings after the strike (a tangent):
+    /// what they ring with is then not their free modes'.
+    pub fn stays_on_strings(&self) -> bool {
+        matches!(self.notes[0].exciter, ExciterDesign::Tangent { .. })
     }
 
     /// Whether it is fading out (stolen, reset, or its instrument replaced).
@@ -328,6 +354,12 @@ impl Key {
         }
         let touch = touch.value();
         let bit = 1u32 << note;
+        if !self.regulation.is_empty() {
+            self.strike_gain_to = regulated(&self.regulation, touch);
+            if !self.active {
+                self.strike_gain = self.strike_gain_to;
+            }
+        }
         self.active = true;
         if self.fade < 1.0 || self.fade_step < 0.0 {
             self.fade_step = self.fade_step.abs().max(1e-4);
@@ -464,7 +496,10 @@ impl Key {
         }
         // A string still being played reports an infinite loudest: no relative culling next time.
         self.loudest_n = if loudest_n.is_finite() { loudest_n } else { 0.0 };
-        self.level = bound * self.gain_per_n * self.fade;
+        if (self.strike_gain - self.strike_gain_to).abs() < 1e-6 * self.strike_gain_to {
+            self.strike_gain = self.strike_gain_to;
+        }
+        self.level = bound * self.gain_per_n * self.fade * self.strike_gain.max(self.strike_gain_to);
         if settled && self.level < silence {
             self.silence();
             return true;
@@ -505,8 +540,12 @@ impl Key {
     pub fn sound(&mut self, bridge: &mut Bridge, scratch: &mut [f64], contact: Option<&mut [f32]>) {
         scratch.fill(0.0);
         self.render(scratch, contact);
+        let glide = self.strike_gain != self.strike_gain_to;
         for v in scratch.iter_mut() {
-            *v = *v * self.gain_per_n * self.fade;
+            if glide {
+                self.strike_gain += (self.strike_gain_to - self.strike_gain) * STRIKE_GAIN_GLIDE;
+            }
+            *v = *v * self.gain_per_n * self.fade * self.strike_gain;
             if self.fade_step != 0.0 {
                 self.fade = (self.fade + self.fade_step).clamp(0.0, 1.0);
                 if self.fade >= 1.0 && self.fade_step > 0.0 {
@@ -602,3 +641,18 @@ impl Key {
         old.silence();
     }
 }
+
+/// A regulation's gain at touch `value` (see [`Key::regulate`]): interpolated
+/// in log gain over log touch, held at the ends.
+pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
+    match table.iter().position(|&(t, _)| t >= value) {
+        None => table.last().map_or(1.0, |p| p.1),
+        Some(0) => table[0].1,
+        Some(i) => {
+            let ((t0, g0), (t1, g1)) = (table[i - 1], table[i]);
+            let x = ((value / t0).ln() / (t1 / t0).ln()).clamp(0.0, 1.0);
+            g0 * (g1 / g0).powf(x)
+        }
+    }
+}
+

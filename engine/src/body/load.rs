@@ -103,12 +103,21 @@ impl<'a> BoardLoad<'a> {
     /// The admittance at `midi_key`'s bridge point at `f_hz`, (re, im) s/kg,
     /// resonances weighted by the irregularity.
     pub fn admittance(&self, midi_key: u8, f_hz: f64) -> (f64, f64) {
+        self.admittance_at(&self.weights(midi_key), f_hz)
+    }
+
+    /// Each mode's phi^2 / m at `midi_key`'s bridge point, kg^-1.
+    fn weights(&self, midi_key: u8) -> Vec<f64> {
         let (x, y) = self.board.bridge_point(midi_key);
+        self.modes.iter().map(|mode| plate::shape_at(mode, x, y).powi(2) / mode.modal_mass_kg).collect()
+    }
+
+    /// [`Self::admittance`] with the modes' weights at the point ([`Self::weights`]).
+    fn admittance_at(&self, weights: &[f64], f_hz: f64) -> (f64, f64) {
         let w = 2.0 * PI * f_hz;
         let (mut re, mut im) = self.residual(f_hz);
-        for mode in &self.modes {
-            let phi = plate::shape_at(mode, x, y);
-            let (r, i) = plate::modal_term(phi * phi / mode.modal_mass_kg, 2.0 * PI * mode.frequency_hz, mode.loss_factor, w);
+        for (mode, &weight) in self.modes.iter().zip(weights) {
+            let (r, i) = plate::modal_term(weight, 2.0 * PI * mode.frequency_hz, mode.loss_factor, w);
             re += r;
             im += i;
         }
@@ -128,12 +137,13 @@ impl<'a> BoardLoad<'a> {
         let (mu, length) = (string.mass_per_length_kg_m, string.length_m);
         let first = string.modes.first().map(|m| m.omega_rad_s);
         let (tension, bending) = (string.tension_n, string.bending_stiffness_n_m2);
+        let weights = self.weights(midi_key);
         for mode in &mut string.modes {
             let omega = mode.omega_rad_s;
             let k = mode.wavenumber_rad_m;
             let weight = tension * k + bending * k * k * k;
             let f_hz = omega / (2.0 * PI);
-            let (re, im) = self.admittance(midi_key, f_hz);
+            let (re, im) = self.admittance_at(&weights, f_hz);
             let mean = self.smooth(f_hz);
             let scale = if mean > 0.0 { resistive.admittance_s_kg / mean } else { 0.0 };
             // eps = w^2 Y / (2 m_n omega^2), m_n = mu L / 2.

@@ -112,6 +112,7 @@ impl MicPlacement {
 pub const PAIR_SPACING_M: f64 = 0.8;
 
 /// Everything the running body needs, built off the audio thread.
+#[derive(Clone)]
 pub struct Soundboard {
     zones: usize,
     /// Per group of LANES modes: pole, state, zone drive weights (Re and Im),
@@ -244,6 +245,32 @@ impl Soundboard {
         if !self.resting {
             self.fade_step = -self.step_s / seconds.max(self.step_s);
         }
+    }
+
+    /// The microphones' mean power (over both) from `from_s` to `to_s` after
+    /// now if nothing pushes from here on: each mode decaying from its state
+    /// now, the modes adding in power (their frequencies differ, so over the
+    /// window their cross terms average out). For voicing keys; not real time.
+    pub fn ring_power(&self, from_s: f64, to_s: f64) -> f64 {
+        let mut power = 0.0;
+        for g in 0..self.re.len() {
+            for l in 0..LANES {
+                let z = Complex64::new(self.re[g][l], self.im[g][l]);
+                let pole = Complex64::new(self.pole_re[g][l], self.pole_im[g][l]);
+                let magnitude = pole.norm();
+                if !(magnitude > 0.0 && magnitude < 1.0) {
+                    continue;
+                }
+                let sigma = -magnitude.ln() / self.step_s;
+                let held = ((-2.0 * sigma * from_s).exp() - (-2.0 * sigma * to_s).exp()) / (2.0 * sigma * (to_s - from_s));
+                for out in &self.out {
+                    let w = Complex64::new(out[0][g][l], out[1][g][l]);
+                    // A real signal Re(w z e^(lambda t)) has half its envelope's power.
+                    power += 0.25 * (w * z).norm_sqr() * held;
+                }
+            }
+        }
+        power
     }
 
     /// Every mode at rest.
@@ -503,12 +530,23 @@ impl HeardModes {
     /// The same for a force shared between several points (point, share): how
     /// the running body hears a key that bears between two zones.
     pub fn transfer_spread_pa_per_n(&self, points: &[((f64, f64), f64)], f_hz: f64) -> [Complex64; 2] {
+        self.transfer_shaped_pa_per_n(&self.shapes(points), f_hz)
+    }
+
+    /// Each mode's shape where a force shared between `points` (point, share)
+    /// bears: what [`Self::transfer_shaped_pa_per_n`] takes, worked out once
+    /// for a key heard at many frequencies.
+    pub fn shapes(&self, points: &[((f64, f64), f64)]) -> Vec<f64> {
+        self.modes.iter().map(|mode| points.iter().map(|&((x, y), share)| share * shape_at(mode, x, y)).sum()).collect()
+    }
+
+    /// [`Self::transfer_spread_pa_per_n`] with the modes' shapes at the points
+    /// given ([`Self::shapes`]).
+    pub fn transfer_shaped_pa_per_n(&self, shapes: &[f64], f_hz: f64) -> [Complex64; 2] {
         let omega = 2.0 * PI * f_hz;
         let mut p = [Complex64::new(0.0, 0.0); 2];
-        for (mode, radiation) in self.modes.iter().zip(&self.radiation) {
+        for ((mode, radiation), &phi) in self.modes.iter().zip(&self.radiation).zip(shapes) {
             let wk = 2.0 * PI * mode.frequency_hz;
-            let phi: f64 =
-                points.iter().map(|&((x, y), share)| share * shape_at(mode, x, y)).sum();
             // Modal acceleration per newton: -omega^2 phi / (m (wk^2 - omega^2 + i eta wk omega)).
             let acc = -omega * omega * phi
                 / (mode.modal_mass_kg * Complex64::new(wk * wk - omega * omega, mode.loss_factor * wk * omega));
@@ -536,7 +574,7 @@ mod tests {
         let point = board.bridge_point(80);
         let mut body = Soundboard::build(&board, fs, &[point], mics, 1.0);
         let heard = HeardModes::new(&board, BODY_TOP_HZ, mics);
-        for f in [20.0, 100.0, 120.0, 140.0, 150.0, 160.0, 180.0, 440.0, 1000.0, 2349.0, 5000.0] {
+        for f in [20.0, 100.0, 120.0, 140.0, 150.0, 160.0, 180.0, 440.0, 1000.0, 2349.0, 5000.0, 7900.0, 8100.0, 9000.0, 12000.0] {
             body.silence();
             let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
             let (mut sum_l, mut sum_r, mut count) = (0.0, 0.0, 0);

@@ -441,16 +441,11 @@ impl ModalBank {
             .sum()
     }
 
-    /// Every mode's share of the bridge force now: its amplitude (N), decay
-    /// rate (1/s) and frequency (Hz). Allocates: for setting up, not the audio
-    /// thread.
-    pub fn bridge_partials(&self) -> Vec<(f64, f64, f64)> {
-        (0..self.len)
-            .map(|i| {
-                let lambda = self.lambda[i];
-                (Complex64::new(self.re[i], self.im[i]).norm(), -lambda.re, lambda.im / (2.0 * std::f64::consts::PI))
-            })
-            .collect()
+    /// Every mode's share of the bridge force from now on, Re(z e^(lambda t)):
+    /// its phasor z (N) and its pole lambda (1/s). Allocates: for setting up,
+    /// not the audio thread.
+    pub fn bridge_partials(&self) -> Vec<(Complex64, Complex64)> {
+        (0..self.len).map(|i| (Complex64::new(self.re[i], self.im[i]), self.lambda[i])).collect()
     }
 
     /// Bridge force of the present state, N.

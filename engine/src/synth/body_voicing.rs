@@ -3,10 +3,14 @@
 //! key must then bear on the body to ring where the instrument's level scale
 //! puts it. Off the audio thread, when an instrument is built.
 
-use crate::body::boards::{BodyDesign, MAX_ZONES};
+use std::f64::consts::PI;
+
+use num_complex::Complex64;
+
+use crate::body::boards::{BodyDesign, MAX_ZONES, ZoneShare};
 use crate::body::soundboard::{HeardModes, Soundboard};
-use crate::design::Touch;
-use crate::key::Key;
+use crate::design::{Touch, TouchRange};
+use crate::key::{Key, regulated};
 use crate::CONTROL_BLOCK;
 
 /// How loud a key's partials come through the body, Pa/N: the pressure per
@@ -53,57 +57,136 @@ const RING_TO_S: f64 = 0.3;
 /// The most partials of a key weighed through the body when it is voiced.
 const PROBE_PARTIALS: usize = 40;
 
-/// How much louder the body hears `key` than the bridge-force output does: a
-/// strike at `ringing` (the touch the level scale is measured at) is played
-/// alone, and what its strings then ring with,
-/// partial by partial, is weighed through the body (the ring 50-300 ms after
-/// the strike, each partial decaying at its own rate, the strings of a unison
-/// adding in power) against what the bridge-force output would ring with at
-/// the key's ringing gain: so each key rings through the microphones where the
-/// instrument's level scale puts it, whatever the body does at its partials.
-/// Then, if its `loudest` strike's first milliseconds through the body would
-/// peak above
-/// [`MIC_PEAK_CEILING_DBFS`], the key is turned down until they do not (the
-/// hammer's push on the bridge, which the bridge-force output caps, reaches the
-/// microphones only through the body's response to it).
-pub(super) fn voice_through_body(
-    key: &mut Key,
-    midi_key: u8,
-    ringing: Touch,
-    loudest: Touch,
-    board: &BodyDesign,
-    heard_modes: &HeardModes,
-    soundboard: &mut Soundboard,
-) -> f64 {
-    let fs = 1.0 / soundboard.step_s();
-    let mut force = vec![0.0; (PROBE_S * fs) as usize];
-    // A felt hammer's spectrum changes with the touch (a hard treble strike can
-    // all but miss the fundamental a mezzo-forte one rings with): the ring is
-    // weighed at the touch the level scale is set at, the peak at the loudest.
-    let partials = key.probe(ringing, &mut force);
-    key.probe(loudest, &mut force);
-    let share = board.zone_share(midi_key);
-    let points = board.share_points(midi_key);
-    // Mean of exp(-2 sigma t) over the ring's window, t from the probe's end.
-    let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
-    let held = |sigma: f64| {
-        if sigma * (to - from) < 1e-9 { 1.0 } else { ((-2.0 * sigma * from).exp() - (-2.0 * sigma * to).exp()) / (2.0 * sigma * (to - from)) }
-    };
-    // The partials by their share of the bridge force's ring.
-    let mut ring: Vec<(f64, f64)> =
-        partials.iter().filter(|p| p.2 > 0.0).map(|&(a, sigma, f)| (0.5 * a * a * held(sigma), f)).collect();
-    ring.sort_by(|a, b| b.0.total_cmp(&a.0));
-    // A partial too weak to count in the bridge force may still be what the
-    // microphones hear most (on a resonance of the board): none is left out for
-    // being weak, only for being beyond the strongest PROBE_PARTIALS.
-    let (mut bridge, mut heard) = (0.0, 0.0);
-    for &(power, f_hz) in ring.iter().take(PROBE_PARTIALS) {
-        bridge += power;
-        let [l, r] = heard_modes.transfer_spread_pa_per_n(&points, f_hz);
-        heard += power * 0.5 * (l.norm_sqr() + r.norm_sqr()) * soundboard.gain().powi(2);
+/// How loud `key` rings through the body after a strike at `touch`, alone,
+/// and how loud the same ring is as the bridge force has it: the mean power
+/// over the ring's window, (full scale)^2 at the key's bridge-force gain, the
+/// body heard `gain` times louder; `force` is left holding the strike's first
+/// [`PROBE_S`] as the bridge gets it.
+///
+/// What the strings ring with is followed partial by partial, each decaying
+/// at its own rate and heard through the body at its own frequency; partials
+/// close in frequency (a unison's strings, struck together and so in phase at
+/// first) add as waves, with their beating over the window. Then the board
+/// rings on from the strike's push (what a soft treble strike rings with
+/// most), its modes taken from where the probe leaves them.
+fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64]) -> (f64, f64) {
+    if key.stays_on_strings() {
+        return ring_played_through_body(key, touch, body, gain, force);
     }
-    let mut voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
-    // The strike's first milliseconds through the body, at that voicing.
+    let Body { heard_modes, shapes, share, soundboard } = body;
+    let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
+    let mut partials: Vec<(Complex64, Complex64)> =
+        key.probe(touch, force).into_iter().filter(|(_, lambda)| lambda.im > 0.0).collect();
+    // The strongest PROBE_PARTIALS by their own ring in the bridge force: a
+    // partial too weak to count there may still be what the microphones hear
+    // most (on a resonance of the board), so none is left out for being weak.
+    let alone = |(z, lambda): &(Complex64, Complex64)| z.norm_sqr() * window_mean(2.0 * lambda.re, from, to);
+    partials.sort_by(|a, b| alone(b).total_cmp(&alone(a)));
+    partials.truncate(PROBE_PARTIALS);
+    let heard: Vec<[Complex64; 2]> = partials
+        .iter()
+        .map(|(z, lambda)| heard_modes.transfer_shaped_pa_per_n(shapes, lambda.im / (2.0 * PI)).map(|t| z * t * gain))
+        .collect();
+    let (mut bridge, mut mics) = (0.0, 0.0);
+    for (j, (zj, lj)) in partials.iter().enumerate() {
+        for (k, (zk, lk)) in partials.iter().enumerate() {
+            if (lj.im - lk.im).abs() > COHERENT_WITHIN * lj.im.abs().max(lk.im.abs()) {
+                continue;
+            }
+            let over = window_integral(lj + lk.conj(), from, to);
+            bridge += 0.5 * (zj * zk.conj() * over).re;
+            for (hj, hk) in heard[j].iter().zip(&heard[k]) {
+                mics += 0.25 * (hj * hk.conj() * over).re;
+            }
+        }
+    }
+    run_board(soundboard, share, force, gain / soundboard.gain());
+    mics += soundboard.ring_power(from, to);
+    soundboard.silence();
+    (mics.max(0.0), bridge.max(0.0))
+}
+
+/// [`ring_through_body`] for a key whose exciter stays on its strings (a
+/// tangent, which shortens them to their speaking length): the strike is
+/// played through the whole ring's window and through the running body, and
+/// the ring measured on what comes out.
+fn ring_played_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64]) -> (f64, f64) {
+    let Body { share, soundboard, .. } = body;
+    let fs = 1.0 / soundboard.step_s();
+    let mut played = vec![0.0; (RING_TO_S * fs) as usize];
+    key.probe(touch, &mut played);
+    let from = (RING_FROM_S * fs) as usize;
+    let n = force.len().min(played.len());
+    force[..n].copy_from_slice(&played[..n]);
+    let window = &played[from.min(played.len())..];
+    // The tangent's held push is a static force the output's DC blocker takes
+    // out (and the body does not radiate): the ring is what moves about it.
+    let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
+    let bridge = window.iter().map(|f| (f - mean) * (f - mean)).sum::<f64>() / window.len().max(1) as f64;
+    soundboard.silence();
+    let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+    let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+    let (mut heard, mut counted) = (0.0, 0usize);
+    for (c, chunk) in played.chunks(CONTROL_BLOCK).enumerate() {
+        for zone in &mut zone_forces {
+            zone.fill(0.0);
+        }
+        for (&z, w) in share.zones.iter().zip(share.weights) {
+            for (t, f) in chunk.iter().enumerate() {
+                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * gain / soundboard.gain();
+            }
+        }
+        let len = chunk.len();
+        soundboard.process(&zone_forces, &mut left[..len], &mut right[..len]);
+        for t in 0..len {
+            if c * CONTROL_BLOCK + t >= from {
+                heard += 0.5 * (left[t] * left[t] + right[t] * right[t]);
+                counted += 1;
+            }
+        }
+    }
+    soundboard.silence();
+    (heard / counted.max(1) as f64, bridge)
+}
+
+/// Partials closer than this fraction of their frequency (5 cents: the same
+/// partial on the strings of a unison) add as waves; others are taken to add
+/// in power over the ring's window (their cross term averages out, and where
+/// a tangent holds the string its free modes do not say how they beat).
+const COHERENT_WITHIN: f64 = 0.003;
+
+/// The mean of e^(mu t) over `from`..`to`, for a complex rate `mu` (1/s).
+fn window_integral(mu: Complex64, from: f64, to: f64) -> Complex64 {
+    if mu.norm() * (to - from) < 1e-9 {
+        return Complex64::new(1.0, 0.0);
+    }
+    ((mu * to).exp() - (mu * from).exp()) / (mu * (to - from))
+}
+
+/// The mean of e^(rate t) over `from`..`to` for a real rate.
+fn window_mean(rate: f64, from: f64, to: f64) -> f64 {
+    window_integral(Complex64::new(rate, 0.0), from, to).re
+}
+
+/// What the body is to one key: the modes it is heard through, the points it
+/// bears on and its share of them, and the running body.
+struct Body<'a, 'b> {
+    heard_modes: &'a HeardModes,
+    /// The body's modes' shapes where the key bears ([`HeardModes::shapes`]).
+    shapes: &'a [f64],
+    share: ZoneShare,
+    soundboard: &'b mut Soundboard,
+}
+
+impl Body<'_, '_> {
+    fn reborrow(&mut self) -> Body<'_, '_> {
+        Body { heard_modes: self.heard_modes, shapes: self.shapes, share: self.share, soundboard: self.soundboard }
+    }
+}
+
+/// Run the board from rest under `force` spread over `share`'s zones times
+/// `scale`; the largest sample either microphone hears.
+fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64) -> f64 {
     soundboard.silence();
     let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
     let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
@@ -114,18 +197,147 @@ pub(super) fn voice_through_body(
         }
         for (&z, w) in share.zones.iter().zip(share.weights) {
             for (t, f) in chunk.iter().enumerate() {
-                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * voicing;
+                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * scale;
             }
         }
         let n = chunk.len();
         soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
         peak = left[..n].iter().chain(&right[..n]).fold(peak, |m, v| m.max(v.abs()));
     }
-    soundboard.silence();
+    peak
+}
+
+/// Touches a key is regulated at, log-spaced over the instrument's range:
+/// a crescendo in velocity steps of 8.
+const REGULATION_TOUCHES: usize = 17;
+
+/// How many times the touches are halved where the ring changes by more than
+/// [`REGULATION_CLOSER_DB`] between two of them.
+const REGULATION_REFINEMENTS: usize = 3;
+const REGULATION_CLOSER_DB: f64 = 1.5;
+
+/// The least rise of the ring from one regulated touch to the next, dB: a
+/// margin for what the estimate of the ring from a short probe misses (up to
+/// about 2 dB on the top keys, against renders).
+const REGULATION_RISE_DB: f64 = 0.75;
+
+/// A key's regulation: how much each touch (by its value, as
+/// [`Key::regulate`] takes it) must be turned down so that its ring through the
+/// body never falls as the touch grows, gain 1 at `ringing`. A felt hammer's
+/// spectrum changes with its speed, and a hard strike can all but miss a
+/// partial a gentler one rings with: a technician regulates such a key so a
+/// crescendo keeps rising, here by holding each touch's ring under the ring of
+/// every harder touch, by [`REGULATION_RISE_DB`] a step (never louder than the
+/// physics gives; at worst a stretch of the crescendo rising slowly).
+fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body, force: &mut [f64]) -> Vec<(f64, f64)> {
+    let (lo, hi) = range.bounds();
+    let step = (hi / lo).powf(1.0 / (REGULATION_TOUCHES - 1) as f64);
+    let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
+    let mut points: Vec<(f64, f64)> = (0..REGULATION_TOUCHES)
+        .map(|i| lo * step.powi(i as i32))
+        .map(|t| (t, ring_at(t)))
+        .collect();
+    // Where the ring changes fast between two touches (a hard strike's
+    // spectrum swinging through a partial), look closer.
+    for _ in 0..REGULATION_REFINEMENTS {
+        let mut finer = Vec::with_capacity(2 * points.len());
+        for pair in points.windows(2) {
+            finer.push(pair[0]);
+            let (a, b) = (pair[0].1.max(1e-300), pair[1].1.max(1e-300));
+            if (10.0 * (b / a).log10()).abs() > REGULATION_CLOSER_DB {
+                let t = (pair[0].0 * pair[1].0).sqrt();
+                finer.push((t, ring_at(t)));
+            }
+        }
+        finer.extend(points.last().copied());
+        if finer.len() == points.len() {
+            break;
+        }
+        points = finer;
+    }
+    // From the hardest touch down, each held under the next by the margin.
+    let mut held = vec![0.0; points.len()];
+    let mut ceiling = f64::INFINITY;
+    for i in (0..points.len()).rev() {
+        let margin = points.get(i + 1).map_or(0.0, |next| REGULATION_RISE_DB * (next.0 / points[i].0).ln() / step.ln());
+        ceiling = (ceiling * 10f64.powf(-margin / 10.0)).min(points[i].1);
+        held[i] = ceiling;
+    }
+    let mut table: Vec<(f64, f64)> = points
+        .iter()
+        .zip(&held)
+        .map(|(&(t, r), &h)| (t, if r > 0.0 && h > 0.0 { (h / r).sqrt() } else { 1.0 }))
+        .collect();
+    let at_ringing = regulated(&table, ringing.value());
+    if at_ringing > 0.0 {
+        table.iter_mut().for_each(|(_, g)| *g /= at_ringing);
+    }
+    table
+}
+
+/// How much louder the body hears `key` than the bridge-force output does, and
+/// its regulation. The key is first regulated (see [`regulation`]; only if
+/// `regulate`, as the bridge-force output is not); then a
+/// strike at `ringing` (the touch the level scale is measured at) is weighed
+/// through the body against the ring the bridge-force output would have at the
+/// key's ringing gain: so each key rings through the microphones where the
+/// instrument's level scale puts it, whatever the body does at its partials.
+/// Then, if its `loudest` strike's first milliseconds through the body (at its
+/// regulation) would peak above [`MIC_PEAK_CEILING_DBFS`], the key is turned
+/// down until they do not (the hammer's push on the bridge, which the
+/// bridge-force output caps, reaches the microphones only through the body's
+/// response to it).
+/// How an instrument's keys are voiced through its body.
+pub(super) struct Voicer<'a> {
+    pub board: &'a BodyDesign,
+    pub heard_modes: &'a HeardModes,
+    /// The instrument's touches, and the one its level scale is set at.
+    pub range: TouchRange,
+    pub ringing: Touch,
+    /// Whether keys are regulated (not for the bridge-force output).
+    pub regulate: bool,
+}
+
+impl Voicer<'_> {
+    /// Voice `key` (listed under `midi_key`) with `soundboard`, a copy of the
+    /// instrument's body: regulate it and return how much louder than its
+    /// bridge-force gain it bears on the body ([`voice_through_body`]).
+    pub fn voice(&self, key: &mut Key, midi_key: u8, soundboard: &mut Soundboard) -> f64 {
+        let Voicer { board, heard_modes, range, ringing, regulate } = *self;
+        voice_through_body(key, midi_key, (range, ringing), board, heard_modes, soundboard, regulate)
+    }
+}
+
+fn voice_through_body(
+    key: &mut Key,
+    midi_key: u8,
+    (range, ringing): (TouchRange, Touch),
+    board: &BodyDesign,
+    heard_modes: &HeardModes,
+    soundboard: &mut Soundboard,
+    regulate: bool,
+) -> f64 {
+    let fs = 1.0 / soundboard.step_s();
+    let mut force = vec![0.0; (PROBE_S * fs) as usize];
+    let shapes = heard_modes.shapes(&board.share_points(midi_key));
+    let gain = soundboard.gain();
+    let mut body = Body { heard_modes, shapes: &shapes, share: board.zone_share(midi_key), soundboard };
+    let loudest = range.max();
+    let mut top_gain = 1.0;
+    if regulate && !key.stays_on_strings() {
+        let table = regulation(key, range, ringing, &mut body, &mut force);
+        top_gain = regulated(&table, loudest.value());
+        key.regulate(table);
+    }
+    let (heard, bridge) = ring_through_body(key, ringing, body.reborrow(), gain, &mut force);
+    let mut voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
+    // The loudest strike's first milliseconds through the body, at that voicing.
+    key.probe(loudest, &mut force);
+    let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
+    body.soundboard.silence();
     let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
     if peak > ceiling {
         voicing *= ceiling / peak;
     }
     voicing
 }
-

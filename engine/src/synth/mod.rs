@@ -33,7 +33,7 @@ use crate::key::Key;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
-use body_voicing::{heard_pa_per_n, voice_through_body};
+use body_voicing::{Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
 
 pub use crate::CONTROL_BLOCK;
@@ -61,6 +61,9 @@ const SCOPE_CHUNK: usize = 8;
 /// stiff against the string's impedance (damping ratio sqrt(K M) / 4 Z0 near 25):
 /// the head's spring only shapes the stroke once it falls below about 1e4 N/m.
 pub const SOFTEST_MALLET: f64 = 1.0e-3;
+/// The most threads an instrument's keys are voiced on when it is built.
+const MAX_VOICING_THREADS: usize = 8;
+
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
 const DC_BLOCK_HZ: f64 = 5.0;
 
@@ -218,15 +221,28 @@ impl Instrument {
         // evenness).
         let heard = HeardModes::new(&board, BODY_TOP_HZ.min(0.45 * fs), mics);
         let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
-        let mut soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
-        let loudest = settings.kind.touch_range().max();
-        let ringing = Controls::default().touch(settings.kind.touch_range(), LEVEL_VELOCITY);
-        for (k, key) in keys.iter_mut().enumerate() {
-            if let Some(key) = key {
-                let voicing = voice_through_body(key, k as u8, ringing, loudest, &board, &heard, &mut soundboard);
-                key.bear_on(board.zone_share(k as u8), voicing);
-            }
+        let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
+        let range = settings.kind.touch_range();
+        let ringing = Controls::default().touch(range, LEVEL_VELOCITY);
+        // Keys are voiced one by one, each from a body at rest: on every core,
+        // the keys dealt out in turn (a treble key costs more than a bass one).
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
+        let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
+        for (i, (k, key)) in keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate() {
+            hands[i % cores].push((k, key));
         }
+        let voicer = Voicer { board: &board, heard_modes: &heard, range, ringing, regulate: settings.strings_on_body };
+        std::thread::scope(|scope| {
+            for hand in hands {
+                let (voicer, mut body) = (&voicer, soundboard.clone());
+                scope.spawn(move || {
+                    for (k, key) in hand {
+                        let voicing = voicer.voice(key, k, &mut body);
+                        key.bear_on(voicer.board.zone_share(k), voicing);
+                    }
+                });
+            }
+        });
         Ok(Self {
             settings: settings.clone(),
             keys,

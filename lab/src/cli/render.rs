@@ -170,6 +170,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
     let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
+    // Ctrl-C (or SIGTERM) stops after the instrument is built or between
+    // blocks, so nothing (or only the partial file, then removed) is written.
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
         (Some(path), _) => {
             Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
@@ -177,6 +180,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         (None, true) => Failure::bad_input(format!("the {kind} cannot be built in this tuning: {e}")),
         (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
     })?;
+    if INTERRUPTED.load(Ordering::Relaxed) {
+        return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
+    }
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
     synth.set_controls(controls);
 
@@ -199,8 +205,6 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     };
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
-    // Ctrl-C (or SIGTERM) stops between blocks, so the partial file is removed.
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     let mut staged = Staged::default();
     let written = staged.write(&args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;

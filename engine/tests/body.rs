@@ -89,7 +89,7 @@ fn low_pass(x: &[f64], fc: f64) -> Vec<f64> {
 }
 
 #[test]
-fn the_treble_rings_within_18_db_of_a4_and_its_strike_stays_within_30_db_of_its_ring() {
+fn the_treble_rings_within_12_db_of_a4_and_its_strike_stays_within_30_db_of_its_ring() {
     let mut s = synth(InstrumentKind::Piano, Output::Microphones);
     let velocity = 80.0 / 127.0;
     let mut rings = Vec::new();
@@ -106,11 +106,34 @@ fn the_treble_rings_within_18_db_of_a4_and_its_strike_stays_within_30_db_of_its_
     let loudest = rings.iter().map(|r| r.1).fold(f64::MIN, f64::max);
     let softest = rings.iter().map(|r| r.1).fold(f64::MAX, f64::min);
     println!("ring levels A4-C8 span {:.1} dB", loudest - softest);
-    // The body's issue asks for 12 dB; the top octave is held down by its own
-    // knock (the loudest touch's push through the board sets its gain), and
-    // the span is 17 dB today (it was 37 through the bridge force). This holds
-    // what has been won until the last 5 dB are.
-    assert!(loudest - softest <= 18.0, "{rings:?}");
+    assert!(loudest - softest <= 12.0, "{rings:?}");
+}
+
+#[test]
+fn neighbouring_keys_ring_alike() {
+    // No key of the piano stands out from the keys beside it at velocity 80:
+    // within 5 dB of the mean of its two neighbours (the knock-limited top
+    // octave included). Keys are voiced at the level scale's touch (velocity
+    // 89), where they match their neighbours within about 1 dB; a key whose
+    // felt's spectrum swings through its fundamental below that touch rises
+    // more steeply to it (F5 by 6.7 dB from velocity 72 to 80, its neighbours
+    // by 3) and stands lowest here, 4.4 dB under its neighbours.
+    let mut s = synth(InstrumentKind::Piano, Output::Microphones);
+    let rings: Vec<(u8, f64)> = (21..=108)
+        .map(|key| {
+            let (l, r) = note(&mut s, key, 80.0 / 127.0, 0.3);
+            (key, ring_db(&l, &r))
+        })
+        .collect();
+    let mut worst = (0u8, 0.0f64);
+    for w in rings.windows(3) {
+        let off = w[1].1 - 0.5 * (w[0].1 + w[2].1);
+        if off.abs() > worst.1.abs() {
+            worst = (w[1].0, off);
+        }
+    }
+    println!("piano: the key furthest from its neighbours is {} at {:+.1} dB", worst.0, worst.1);
+    assert!(worst.1.abs() <= 5.0, "key {} rings {:+.1} dB off its neighbours", worst.0, worst.1);
 }
 
 /// The amplitude (dB) of the strongest component within `band_hz` of `x`

@@ -302,7 +302,7 @@ impl Voicer<'_> {
     /// Voice `key` (listed under `midi_key`) with `soundboard`, a copy of the
     /// instrument's body: regulate it and return how much louder than its
     /// bridge-force gain it bears on the body ([`voice_through_body`]).
-    pub fn voice(&self, key: &mut Key, midi_key: u8, soundboard: &mut Soundboard) -> f64 {
+    pub fn voice(&self, key: &mut Key, midi_key: u8, soundboard: &mut Soundboard) -> Voiced {
         let Voicer { board, heard_modes, range, ringing, regulate } = *self;
         voice_through_body(key, midi_key, (range, ringing), board, heard_modes, soundboard, regulate)
     }
@@ -316,7 +316,7 @@ fn voice_through_body(
     heard_modes: &HeardModes,
     soundboard: &mut Soundboard,
     regulate: bool,
-) -> f64 {
+) -> Voiced {
     let fs = 1.0 / soundboard.step_s();
     let mut force = vec![0.0; (PROBE_S * fs) as usize];
     let shapes = heard_modes.shapes(&board.share_points(midi_key));
@@ -330,14 +330,39 @@ fn voice_through_body(
         key.regulate(table);
     }
     let (heard, bridge) = ring_through_body(key, ringing, body.reborrow(), gain, &mut force);
-    let mut voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
+    let voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
     // The loudest strike's first milliseconds through the body, at that voicing.
     key.probe(loudest, &mut force);
     let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
     body.soundboard.silence();
     let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-    if peak > ceiling {
-        voicing *= ceiling / peak;
-    }
-    voicing
+    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 } }
+}
+
+/// A key voiced through the body: how much louder than its bridge-force gain
+/// it must bear on the body to ring where the level scale puts it, and what
+/// its loudest strike's peak then allows of that (1: all of it).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Voiced {
+    pub level: f64,
+    pub peak_cut: f64,
+}
+
+/// The share of keys whose peak sets the instrument's headroom: the rest are
+/// turned down further, each by its own peak.
+const HEADROOM_QUANTILE: f64 = 0.8;
+
+/// The instrument's headroom through the body, as a gain (at most 1): the
+/// cut that [`HEADROOM_QUANTILE`] of its keys need no more than. A recording
+/// engineer sets one gain for the instrument so that its loud keys fit; every
+/// key is turned down by it, so that keys whose loudest strike peaks higher
+/// than their ring would suggest (a hard strike's knock) do not stand out
+/// below their neighbours. The few whose peak needs more are turned down by
+/// their own (the top octave's knock).
+pub(super) fn headroom(voiced: &[Voiced]) -> f64 {
+    let mut cuts: Vec<f64> = voiced.iter().map(|v| v.peak_cut).collect();
+    cuts.sort_by(f64::total_cmp);
+    // Sorted from the deepest cut: the quantile's key from the shallow end.
+    let index = ((1.0 - HEADROOM_QUANTILE) * cuts.len() as f64).floor() as usize;
+    cuts.get(index.min(cuts.len().saturating_sub(1))).copied().unwrap_or(1.0).min(1.0)
 }

@@ -33,7 +33,7 @@ use crate::key::Key;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
-use body_voicing::{Voicer, heard_pa_per_n};
+use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
 
 pub use crate::CONTROL_BLOCK;
@@ -232,17 +232,26 @@ impl Instrument {
             hands[i % cores].push((k, key));
         }
         let voicer = Voicer { board: &board, heard_modes: &heard, range, ringing, regulate: settings.strings_on_body };
-        std::thread::scope(|scope| {
-            for hand in hands {
-                let (voicer, mut body) = (&voicer, soundboard.clone());
-                scope.spawn(move || {
-                    for (k, key) in hand {
-                        let voicing = voicer.voice(key, k, &mut body);
-                        key.bear_on(voicer.board.zone_share(k), voicing);
-                    }
-                });
-            }
+        let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
+            let workers: Vec<_> = hands
+                .into_iter()
+                .map(|hand| {
+                    let (voicer, mut body) = (&voicer, soundboard.clone());
+                    scope.spawn(move || {
+                        hand.into_iter().map(|(k, key)| {
+                            let v = voicer.voice(key, k, &mut body);
+                            (k, key, v)
+                        })
+                        .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
         });
+        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2).collect::<Vec<_>>());
+        for (k, key, v) in &mut voiced {
+            key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
+        }
         Ok(Self {
             settings: settings.clone(),
             keys,

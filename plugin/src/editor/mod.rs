@@ -339,10 +339,17 @@ mod tests {
         assert_eq!(shown.midi_key, 69);
         assert!(shown.contact_len > 0 && shown.contact_n.iter().any(|&f| f > 0.0));
         let spectrum = editor.live.spectrum_db();
-        // A4 at 440 Hz: the loudest bin lies near it or a partial above.
-        let loudest = (0..spectrum.len()).max_by(|&a, &b| spectrum[a].total_cmp(&spectrum[b])).unwrap();
-        let loudest_hz = loudest as f64 * fs / views::SPECTRUM_SIZE as f64;
-        assert!(spectrum[loudest] > -60.0 && loudest_hz > 300.0, "{loudest_hz} Hz at {} dB", spectrum[loudest]);
+        // A4 at 440 Hz stands out within 20 dB of the loudest bin (which may be
+        // the box's air mode near 130 Hz, rung by the mallet's knock).
+        let bin_hz = fs / views::SPECTRUM_SIZE as f64;
+        let loudest = spectrum.iter().copied().fold(f32::MIN, f32::max);
+        let a4 = spectrum
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| (*i as f64 * bin_hz - 440.0).abs() < 20.0)
+            .map(|(_, &d)| d)
+            .fold(f32::MIN, f32::max);
+        assert!(loudest > -60.0 && a4 > loudest - 20.0, "A4 at {a4} dB, the loudest bin at {loudest} dB");
         assert_eq!(host.changes.load(Ordering::Relaxed), 0, "drawing changes no parameter");
     }
 

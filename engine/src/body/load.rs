@@ -38,6 +38,7 @@ use std::f64::consts::PI;
 
 use super::boards::BodyDesign;
 use super::plate::{self, BodyMode};
+use crate::design::ResistiveBridge;
 use crate::string::StringModes;
 
 /// Modes carried one by one in the admittance, at most up to this frequency,
@@ -49,16 +50,6 @@ const EXPLICIT_TOP_HZ: f64 = 10_000.0;
 const TABLE_STEP: f64 = 0.005;
 const TABLE_FROM_HZ: f64 = 10.0;
 const TABLE_TO_HZ: f64 = 30_000.0;
-
-/// The resistive bridge a design set its strings' losses with, and the
-/// voicing's factor on every loss.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ResistiveBridge {
-    /// Re Y, s/kg.
-    pub admittance_s_kg: f64,
-    /// The voicing's damping: every mode's loss times this.
-    pub loss_scale: f64,
-}
 
 /// A board's admittance at every key's bridge point, ready to load strings.
 pub struct BoardLoad<'a> {

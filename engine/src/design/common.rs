@@ -10,8 +10,7 @@
 use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
-use super::{DamperDesign, Voicing, key_frequency_hz};
-use crate::body::load::ResistiveBridge;
+use super::{DamperDesign, ResistiveBridge, Voicing, key_frequency_hz};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::{Damping, LossModel, PhysicalLoss};
 use crate::string::{Mass, StringSpec};

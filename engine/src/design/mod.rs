@@ -14,7 +14,6 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use crate::exciter::hammer::contact::ContactLaw;
-use crate::body::load::ResistiveBridge;
 use crate::string::StringSpec;
 
 mod cimbalom;
@@ -284,6 +283,17 @@ pub struct SharedKey {
     pub exciter: ExciterDesign,
     /// Its pitch over the course's own (a tangent nearer the bridge shortens the speaking length).
     pub pitch_ratio: f64,
+}
+
+/// The resistive bridge a design set its strings' losses with, and the
+/// voicing's factor on every loss: what the body's admittance takes the place
+/// of when the strings bear on the body (`body::load`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResistiveBridge {
+    /// Re Y, s/kg.
+    pub admittance_s_kg: f64,
+    /// The voicing's damping: every mode's loss times this.
+    pub loss_scale: f64,
 }
 
 /// Everything one key is made of.

@@ -13,7 +13,7 @@ use std::ops::Range;
 use num_complex::Complex64;
 
 use crate::body::boards::ZoneShare;
-use crate::body::load::BoardLoad;
+use crate::body::load::{BoardLoad, trade, unison_step};
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};
@@ -66,6 +66,16 @@ struct Note {
     substeps: Option<SubstepPlan>,
 }
 
+/// A unison's strings trade through the body every this many control blocks
+/// (10.7 ms at 48 kHz: the coupling moves them by under a tenth of their
+/// motion in that time, and a cent's mistuning turns them apart by under a
+/// tenth of a radian even at C8).
+pub(crate) const TRADE_BLOCKS: usize = 8;
+
+/// The most strings of a unison that trade through the body (a santoor's
+/// course has four).
+const MAX_UNISON: usize = 8;
+
 /// Per-sample step of a key's strike gain toward a new strike's regulation
 /// (a time constant of 256 samples, about 5 ms at 48 kHz: the new strike
 /// masks it).
@@ -77,6 +87,12 @@ pub(crate) struct Key {
     strings: Vec<StruckString>,
     notes: Vec<Note>,
     damper: Damper,
+    /// How [`TRADE_BLOCKS`] control blocks of the unison's trading through the
+    /// body move each partial: the share that differs from the strings' mean by
+    /// alpha, the mean by beta (empty: strings not coupled so).
+    unison: Vec<(Complex64, Complex64)>,
+    /// Control blocks since the unison last traded.
+    blocks_since_trade: usize,
     /// Re Y of the shared bridge point (0: strings not coupled), and the force each
     /// string put on it last sample.
     bridge_coupling_s_kg: f64,
@@ -149,9 +165,20 @@ impl Key {
         }));
         notes.truncate(MAX_NOTES);
         let mut modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
+        // A course's strings trade energy through the board where they bear
+        // together (a dulcimer's courses already move their bridge point).
+        let coupled = board.is_some() && (2..=MAX_UNISON).contains(&modes.len()) && design.bridge_coupling_s_kg <= 0.0;
+        let mut unison = Vec::new();
         if let Some(board) = board {
+            let n = if coupled { modes.len() } else { 1 };
+            if coupled {
+                let step_s = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 / sample_rate_hz;
+                let eps = board.coupling(design.midi_key, design.resistive_bridge, &modes[0]);
+                let partials = modes.iter().map(|m| m.modes.len()).min().unwrap_or(0).min(eps.len());
+                unison = eps[..partials].iter().map(|&e| unison_step(e, n, step_s)).collect();
+            }
             for string in &mut modes {
-                board.load(design.midi_key, design.resistive_bridge, string);
+                board.load(design.midi_key, design.resistive_bridge, n, string);
             }
         }
         // Each hammer's strikes measured on the last string it reaches, with its
@@ -190,6 +217,8 @@ impl Key {
             strings,
             notes,
             damper: Damper::new(design.damper),
+            unison,
+            blocks_since_trade: 0,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
             force_now_n: vec![0.0; design.strings.len()],
@@ -248,18 +277,25 @@ impl Key {
 
     /// Play its first note at `touch` alone for `force.len()` samples, writing
     /// the force it hands the bridge (at its output gain), and return what its
-    /// strings then ring with, mode by mode: the force Re(z e^(lambda t)) at
-    /// output gain, as (z, lambda). The key is left silent. Allocates; for
+    /// strings then ring with, string by string and mode by mode: the force
+    /// Re(z e^(lambda t)) at output gain, as (z, lambda). The key is left silent. Allocates; for
     /// voicing the key through the body when the instrument is built.
-    pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<(Complex64, Complex64)> {
+    pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<Vec<(Complex64, Complex64)>> {
         self.press(0, touch, false, 1.0, 1.0);
-        for chunk in force.chunks_mut(CONTROL_BLOCK) {
+        for (b, chunk) in force.chunks_mut(CONTROL_BLOCK).enumerate() {
             chunk.fill(0.0);
             self.render(chunk, None);
+            if chunk.len() == CONTROL_BLOCK && (b + 1) % TRADE_BLOCKS == 0 {
+                self.trade_through_bridge(0.0);
+            }
         }
         force.iter_mut().for_each(|f| *f *= self.gain_per_n);
         let gain = self.gain_per_n;
-        let partials = self.strings.iter().flat_map(|s| s.bank().bridge_partials()).map(|(z, lambda)| (z * gain, lambda)).collect();
+        let partials = self
+            .strings
+            .iter()
+            .map(|s| s.bank().bridge_partials().into_iter().map(|(z, lambda)| (z * gain, lambda)).collect())
+            .collect();
         self.silence();
         self.sounded = 0;
         partials
@@ -269,6 +305,13 @@ impl Key {
     /// what they ring with is then not their free modes'.
     pub fn stays_on_strings(&self) -> bool {
         matches!(self.notes[0].exciter, ExciterDesign::Tangent { .. })
+    }
+
+    /// How [`TRADE_BLOCKS`] control blocks of its unison's trading through the
+    /// body move each partial (see [`Self::trade_through_bridge`]; empty when
+    /// its strings do not trade so).
+    pub fn unison(&self) -> &[(Complex64, Complex64)] {
+        &self.unison
     }
 
     /// Whether it is fading out (stolen, reset, or its instrument replaced).
@@ -481,9 +524,14 @@ impl Key {
         if self.damper.moved() || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
             self.set_poles(pitch);
         }
+        let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
+        self.blocks_since_trade += 1;
+        if self.blocks_since_trade >= TRADE_BLOCKS {
+            self.blocks_since_trade = 0;
+            self.trade_through_bridge(floor_n);
+        }
         let mut settled = true;
         let mut bound = 0.0;
-        let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
         let mut loudest_n = 0.0f64;
         for s in &mut self.strings {
             if s.hammer_gone(HAMMER_GONE_GAP_M, HAMMER_GONE_AFTER_S) {
@@ -505,6 +553,41 @@ impl Key {
             return true;
         }
         false
+    }
+
+    /// A control block of the unison's strings trading energy through their
+    /// bridge point (Weinreich 1977): partial by partial, the strings' mean
+    /// moves the bridge and with it every string, so the mean (the strings in
+    /// step) loses into the body N times as fast as one string alone, and
+    /// whatever differs from it (strings out of step) not at all. Each string's
+    /// own loss is in its free step; this applies the rest, exactly for the
+    /// coupling over [`TRADE_BLOCKS`] blocks (the detuning turns the strings
+    /// apart by hundredths of a radian in that time). Partials no string
+    /// computes are left alone, and a mode at rest takes its share only if it
+    /// is over `floor_n`. Allocates: no.
+    fn trade_through_bridge(&mut self, floor_n: f64) {
+        if self.unison.is_empty() {
+            return;
+        }
+        let top = self.strings.iter().map(|s| s.bank().running()).max().unwrap_or(0).min(self.unison.len());
+        let mut phasors = [Complex64::new(0.0, 0.0); MAX_UNISON];
+        let strings = self.strings.len().min(MAX_UNISON);
+        for (i, &step) in self.unison[..top].iter().enumerate() {
+            for (z, s) in phasors.iter_mut().zip(&self.strings) {
+                *z = s.bank().phasor(i);
+            }
+            if phasors[..strings].iter().all(|z| z.re.abs() + z.im.abs() < floor_n.max(f64::MIN_POSITIVE)) {
+                continue;
+            }
+            trade(step, &mut phasors[..strings]);
+            for (z, s) in phasors.iter().zip(&mut self.strings) {
+                // A mode at rest is woken only if what it takes would not be
+                // culled at once.
+                if i < s.bank().running() || z.re.abs() + z.im.abs() >= floor_n {
+                    s.bank_mut().set_phasor(i, *z);
+                }
+            }
+        }
     }
 
     /// Set every string's free step for the damper's present engagement and `pitch`.

@@ -80,6 +80,12 @@ impl StruckString {
         &self.bank
     }
 
+    /// The modes' state, to be changed between samples (a unison's strings
+    /// trading energy through their bridge point).
+    pub fn bank_mut(&mut self) -> &mut ModalBank {
+        &mut self.bank
+    }
+
     pub fn sample_rate_hz(&self) -> f64 {
         1.0 / self.audio.step_s
     }

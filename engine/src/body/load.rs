@@ -38,6 +38,8 @@ use std::f64::consts::PI;
 
 use super::boards::BodyDesign;
 use super::plate::{self, BodyMode};
+use num_complex::Complex64;
+
 use crate::design::ResistiveBridge;
 use crate::string::StringModes;
 
@@ -120,37 +122,81 @@ impl<'a> BoardLoad<'a> {
     /// every mode's bridge loss becomes the board's, scaled so the board's
     /// smooth mean is the resistive bridge's Re Y, and its frequency moves
     /// by the reactance; then the first partial is tuned back.
-    pub fn load(&self, midi_key: u8, resistive: ResistiveBridge, string: &mut StringModes) {
+    pub fn load(&self, midi_key: u8, resistive: ResistiveBridge, unison: usize, string: &mut StringModes) {
         if !(resistive.admittance_s_kg > 0.0) {
             return;
         }
+        let eps = self.coupling(midi_key, resistive, string);
         let z0 = string.impedance_ns_m();
-        let (mu, length) = (string.mass_per_length_kg_m, string.length_m);
         let first = string.modes.first().map(|m| m.omega_rad_s);
-        let (tension, bending) = (string.tension_n, string.bending_stiffness_n_m2);
-        let weights = self.weights(midi_key);
-        for mode in &mut string.modes {
+        for (mode, eps) in string.modes.iter_mut().zip(&eps) {
             let omega = mode.omega_rad_s;
-            let k = mode.wavenumber_rad_m;
-            let weight = tension * k + bending * k * k * k;
-            let f_hz = omega / (2.0 * PI);
-            let (re, im) = self.admittance_at(&weights, f_hz);
-            let mean = self.smooth(f_hz);
-            let scale = if mean > 0.0 { resistive.admittance_s_kg / mean } else { 0.0 };
-            // eps = w^2 Y / (2 m_n omega^2), m_n = mu L / 2.
-            let per_admittance = weight * weight / (mu * length * omega * omega);
             let resistive_rate = z0 * resistive.admittance_s_kg * omega / (mode.number as f64 * PI);
-            let sigma = mode.decay_rate_s() + resistive.loss_scale * (per_admittance * re * scale - resistive_rate);
-            mode.omega_rad_s = omega - per_admittance * im * scale;
+            let sigma = mode.decay_rate_s() + eps.re - resistive.loss_scale * resistive_rate;
+            mode.omega_rad_s = omega - eps.im;
             mode.q = if sigma > 0.0 { mode.omega_rad_s / (2.0 * sigma) } else { f64::INFINITY };
         }
-        if let (Some(before), Some(after)) = (first, string.modes.first().map(|m| m.omega_rad_s))
+        // The tuner hears the unison's strings swing together, the first
+        // partial pulled by all of them at once.
+        let pull = eps.first().map_or(0.0, |e| e.im * (unison.max(1) - 1) as f64);
+        if let (Some(before), Some(after)) = (first, string.modes.first().map(|m| m.omega_rad_s - pull))
             && after > 0.0
         {
             let ratio = before / after;
             string.modes.iter_mut().for_each(|m| m.omega_rad_s *= ratio);
         }
     }
+}
+
+impl BoardLoad<'_> {
+    /// How the board pulls each mode of `string` (`midi_key`'s, set up with
+    /// `resistive`'s losses) through its bridge point: the complex shift
+    /// eps_n = w_n^2 Y(f_n) / (2 m_n omega_n^2) of its pole (decay rate
+    /// Re eps, angular frequency -Im eps), Y scaled as [`Self::load`] says and
+    /// its real part by the voicing's damping. The strings of a unison share
+    /// it: each loses eps_n on its own, and their sum pulls all of them.
+    pub fn coupling(&self, midi_key: u8, resistive: ResistiveBridge, string: &StringModes) -> Vec<Complex64> {
+        let (mu, length) = (string.mass_per_length_kg_m, string.length_m);
+        let (tension, bending) = (string.tension_n, string.bending_stiffness_n_m2);
+        let weights = self.weights(midi_key);
+        string
+            .modes
+            .iter()
+            .map(|mode| {
+                let omega = mode.omega_rad_s;
+                let k = mode.wavenumber_rad_m;
+                let weight = tension * k + bending * k * k * k;
+                let f_hz = omega / (2.0 * PI);
+                let (re, im) = self.admittance_at(&weights, f_hz);
+                let mean = self.smooth(f_hz);
+                let scale = if mean > 0.0 { resistive.admittance_s_kg / mean } else { 0.0 };
+                // eps = w^2 Y / (2 m_n omega^2), m_n = mu L / 2.
+                let per_admittance = weight * weight / (mu * length * omega * omega) * scale;
+                Complex64::new(resistive.loss_scale * per_admittance * re, per_admittance * im)
+            })
+            .collect()
+    }
+}
+
+/// How a control block of `step_s` of a unison of `strings` strings trading
+/// through their bridge point moves a partial whose pole each string's loss
+/// into the body shifts by `eps` ([`BoardLoad::coupling`]): (alpha, beta) for
+/// [`trade`]. The strings' mean (their bridge force over N) pulls the bridge
+/// and every string with it: with each string's own share already in its
+/// pole, what is left is -eps (1 1^T - I), whose exponential over the block
+/// is alpha = e^(eps h) on what differs from the mean and beta =
+/// e^(-(N - 1) eps h) on the mean.
+pub fn unison_step(eps: Complex64, strings: usize, step_s: f64) -> (Complex64, Complex64) {
+    ((eps * step_s).exp(), (-eps * step_s * strings.saturating_sub(1) as f64).exp())
+}
+
+/// One block of a unison's trading (Weinreich 1977) on the strings' phasors
+/// of one partial, `(alpha, beta)` from [`unison_step`]: the mean moves by
+/// beta, what differs from it by alpha. Allocates: no.
+pub fn trade((alpha, beta): (Complex64, Complex64), phasors: &mut [Complex64]) {
+    let n = phasors.len().max(1) as f64;
+    let mean = phasors.iter().sum::<Complex64>() / n;
+    phasors.iter_mut().for_each(|z| *z = alpha * (*z - mean) + beta * mean);
 }
 
 #[cfg(test)]
@@ -194,7 +240,7 @@ mod tests {
         let board = design(InstrumentKind::Piano);
         let load = BoardLoad::new(&board, 0.0);
         let mut s = a4(RESISTIVE.admittance_s_kg);
-        load.load(69, RESISTIVE, &mut s);
+        load.load(69, RESISTIVE, 1, &mut s);
         // The smooth mean is the resistive level at every frequency: every
         // partial keeps its decay, but for the stiff string's larger bridge
         // weight (the resistive formula is the flexible string's: a factor
@@ -213,7 +259,7 @@ mod tests {
         let board = design(InstrumentKind::Piano);
         let load = BoardLoad::new(&board, 1.0);
         let mut s = a4(RESISTIVE.admittance_s_kg);
-        load.load(69, RESISTIVE, &mut s);
+        load.load(69, RESISTIVE, 1, &mut s);
         let shares = bridge_shares(&s);
         let first: Vec<f64> = shares.iter().take(3).copied().collect();
         let (lo, hi) = first.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
@@ -231,5 +277,43 @@ mod tests {
             .map(|(a, b)| 1200.0 * (a.omega_rad_s / b.omega_rad_s).log2())
             .collect();
         assert!(cents.iter().any(|c| c.abs() > 0.01) && cents.iter().all(|c| c.abs() < 10.0), "{cents:?}");
+    }
+
+    /// Two strings of a unison, each turning by its own pole and trading
+    /// block by block, against Weinreich's closed form: the eigenvalues
+    /// lambda_mean - eps +- sqrt(eps^2 + delta^2) of the coupled pair.
+    #[test]
+    fn a_traded_pair_follows_the_coupled_eigenvalues() {
+        // Eight control blocks of 64 samples at 48 kHz, as the keys trade.
+        let h = 512.0 / 48_000.0;
+        let eps = Complex64::new(1.1, 0.3);
+        for detune_hz in [0.0, 0.05, 0.2, 1.0] {
+            let bare = [Complex64::new(-0.3, 2.0 * PI * 262.0), Complex64::new(-0.3, 2.0 * PI * (262.0 + detune_hz))];
+            // The free step holds each string's own share of the bridge's pull.
+            let own: Vec<Complex64> = bare.iter().map(|l| ((l - eps) * h).exp()).collect();
+            let step = unison_step(eps, 2, h);
+            let mut z = [Complex64::new(1.0, 0.0), Complex64::new(0.3, 0.2)];
+            let mut exact = z;
+            // The exact solution: a' = (D - eps 1 1^T) a, by its eigenvectors.
+            let (mean, half) = ((bare[0] + bare[1]) / 2.0, (bare[0] - bare[1]) / 2.0);
+            let root = (eps * eps + half * half).sqrt();
+            let mu = [mean - eps + root, mean - eps - root];
+            // Eigenvectors of [[l0 - eps, -eps], [-eps, l1 - eps]].
+            let vec = |m: Complex64| [Complex64::new(1.0, 0.0), (bare[0] - eps - m) / eps];
+            let (v0, v1) = (vec(mu[0]), vec(mu[1]));
+            let det = v0[0] * v1[1] - v1[0] * v0[1];
+            let c0 = (exact[0] * v1[1] - v1[0] * exact[1]) / det;
+            let c1 = (v0[0] * exact[1] - exact[0] * v0[1]) / det;
+            let blocks = 250;
+            for _ in 0..blocks {
+                z.iter_mut().zip(&own).for_each(|(z, t)| *z *= t);
+                trade(step, &mut z);
+            }
+            let t = blocks as f64 * h;
+            exact = [c0 * v0[0] * (mu[0] * t).exp() + c1 * v1[0] * (mu[1] * t).exp(), c0 * v0[1] * (mu[0] * t).exp() + c1 * v1[1] * (mu[1] * t).exp()];
+            for (a, b) in z.iter().zip(&exact) {
+                assert!((a - b).norm() < 2e-3 * (1.0 + b.norm()), "detune {detune_hz} Hz: {a} against {b}");
+            }
+        }
     }
 }

@@ -285,6 +285,20 @@ impl ModalBank {
         self.im[i] = zeta.im;
     }
 
+    /// Mode `i`'s share of the bridge force as a phasor: the force is its real
+    /// part, and it turns by the mode's pole each step.
+    pub fn phasor(&self, i: usize) -> Complex64 {
+        Complex64::new(self.re[i], self.im[i])
+    }
+
+    /// Set mode `i`'s phasor (see [`Self::phasor`]), computing it from now on
+    /// if it was culled. Allocates: no.
+    pub fn set_phasor(&mut self, i: usize, zeta: Complex64) {
+        self.running = self.running.max((i + 1).next_multiple_of(LANES)).min(self.re.len());
+        self.re[i] = zeta.re;
+        self.im[i] = zeta.im;
+    }
+
     /// Displacement q_n of mode `i` (index from 0), m.
     pub fn displacement(&self, i: usize) -> f64 {
         self.state(i).re

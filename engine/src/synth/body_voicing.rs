@@ -8,9 +8,10 @@ use std::f64::consts::PI;
 use num_complex::Complex64;
 
 use crate::body::boards::{BodyDesign, MAX_ZONES, ZoneShare};
+use crate::body::load::trade;
 use crate::body::soundboard::{HeardModes, Soundboard};
 use crate::design::{Touch, TouchRange};
-use crate::key::{Key, regulated};
+use crate::key::{Key, TRADE_BLOCKS, regulated};
 use crate::CONTROL_BLOCK;
 
 /// How loud a key's partials come through the body, Pa/N: the pressure per
@@ -75,8 +76,33 @@ fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: 
     }
     let Body { heard_modes, shapes, share, soundboard } = body;
     let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
-    let mut partials: Vec<(Complex64, Complex64)> =
-        key.probe(touch, force).into_iter().filter(|(_, lambda)| lambda.im > 0.0).collect();
+    let strings = key.probe(touch, force);
+    let (free_mics, bridge) = free_ring(strings.iter().flatten().copied().collect(), heard_modes, shapes, gain);
+    // A unison whose strings trade through the body rings less in the window
+    // (its prompt sound is N times as fast): what it is voiced against stays
+    // the ring its strings would have on their own, so that the level scale
+    // holds however strongly the body couples them.
+    let mut mics = if key.unison().is_empty() {
+        free_mics
+    } else {
+        unison_ring(&strings, key.unison(), soundboard.step_s(), heard_modes, shapes, gain).0
+    };
+    run_board(soundboard, share, force, gain / soundboard.gain());
+    mics += soundboard.ring_power(from, to);
+    soundboard.silence();
+    (mics.max(0.0), bridge.max(0.0))
+}
+
+/// The ring's mean power (microphones, bridge force) of free `partials`
+/// (each string's modes on their own): see [`ring_through_body`].
+fn free_ring(
+    mut partials: Vec<(Complex64, Complex64)>,
+    heard_modes: &HeardModes,
+    shapes: &[f64],
+    gain: f64,
+) -> (f64, f64) {
+    let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
+    partials.retain(|(_, lambda)| lambda.im > 0.0);
     // The strongest PROBE_PARTIALS by their own ring in the bridge force: a
     // partial too weak to count there may still be what the microphones hear
     // most (on a resonance of the board), so none is left out for being weak.
@@ -100,10 +126,50 @@ fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: 
             }
         }
     }
-    run_board(soundboard, share, force, gain / soundboard.gain());
-    mics += soundboard.ring_power(from, to);
-    soundboard.silence();
-    (mics.max(0.0), bridge.max(0.0))
+    (mics, bridge)
+}
+
+/// The ring's mean power (microphones, bridge force) of a unison whose
+/// strings trade energy through the body (`unison`, per [`TRADE_BLOCKS`]
+/// control blocks of samples `step_s` long): each partial's strings are
+/// followed trade by trade over the ring's window, each turning by its own
+/// pole and then trading, so the prompt sound, the aftersound and their
+/// beating are all in what is weighed.
+fn unison_ring(
+    strings: &[Vec<(Complex64, Complex64)>],
+    unison: &[(Complex64, Complex64)],
+    step_s: f64,
+    heard_modes: &HeardModes,
+    shapes: &[f64],
+    gain: f64,
+) -> (f64, f64) {
+    let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
+    let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
+    let partials = strings.iter().map(Vec::len).min().unwrap_or(0).min(unison.len());
+    // The strongest PROBE_PARTIALS partials by their strings' own ring.
+    let alone = |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
+    let mut order: Vec<usize> = (0..partials).filter(|&i| strings.iter().all(|s| s[i].1.im > 0.0)).collect();
+    order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
+    order.truncate(PROBE_PARTIALS);
+    let (first, last) = ((from / h).ceil() as usize, (to / h).floor() as usize);
+    let blocks = (last + 1).saturating_sub(first).max(1) as f64;
+    let (mut bridge, mut mics) = (0.0, 0.0);
+    for i in order {
+        let turn: Vec<Complex64> = strings.iter().map(|s| (s[i].1 * h).exp()).collect();
+        let mut zeta: Vec<Complex64> = strings.iter().map(|s| s[i].0).collect();
+        let [l, r] = heard_modes.transfer_shaped_pa_per_n(shapes, strings[0][i].1.im / (2.0 * PI));
+        let heard = 0.5 * (l.norm_sqr() + r.norm_sqr()) * gain * gain;
+        for block in 1..=last {
+            zeta.iter_mut().zip(&turn).for_each(|(z, t)| *z *= t);
+            trade(unison[i], &mut zeta);
+            if block >= first {
+                let force = zeta.iter().sum::<Complex64>().norm_sqr() / 2.0;
+                bridge += force / blocks;
+                mics += force * heard / blocks;
+            }
+        }
+    }
+    (mics, bridge)
 }
 
 /// [`ring_through_body`] for a key whose exciter stays on its strings (a
@@ -350,7 +416,7 @@ pub(super) struct Voiced {
 
 /// The share of keys whose peak sets the instrument's headroom: the rest are
 /// turned down further, each by its own peak.
-const HEADROOM_QUANTILE: f64 = 0.8;
+const HEADROOM_QUANTILE: f64 = 0.85;
 
 /// The instrument's headroom through the body, as a gain (at most 1): the
 /// cut that [`HEADROOM_QUANTILE`] of its keys need no more than. A recording
@@ -366,3 +432,4 @@ pub(super) fn headroom(voiced: &[Voiced]) -> f64 {
     let index = ((1.0 - HEADROOM_QUANTILE) * cuts.len() as f64).floor() as usize;
     cuts.get(index.min(cuts.len().saturating_sub(1))).copied().unwrap_or(1.0).min(1.0)
 }
+

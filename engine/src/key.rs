@@ -76,10 +76,10 @@ pub(crate) const TRADE_BLOCKS: usize = 8;
 /// course has four).
 const MAX_UNISON: usize = 8;
 
-/// Per-sample step of a key's strike gain toward a new strike's regulation
-/// (a time constant of 256 samples, about 5 ms at 48 kHz: the new strike
-/// masks it).
-const STRIKE_GAIN_GLIDE: f64 = 1.0 / 256.0;
+/// Time constant of a key's strike gain gliding to a new strike's regulation,
+/// s (the new strike masks it; a step would click on the strings still
+/// ringing from the last).
+const STRIKE_GAIN_GLIDE_S: f64 = 0.005;
 
 pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
@@ -113,6 +113,8 @@ pub(crate) struct Key {
     regulation: Vec<(f64, f64)>,
     strike_gain: f64,
     strike_gain_to: f64,
+    /// Per-sample step of the strike gain's glide ([`STRIKE_GAIN_GLIDE_S`]).
+    strike_glide: f64,
     // What the player is doing with it.
     /// Sounding (struck and not yet silent or faded out).
     active: bool,
@@ -229,6 +231,7 @@ impl Key {
             regulation: Vec::new(),
             strike_gain: 1.0,
             strike_gain_to: 1.0,
+            strike_glide: 1.0 - (-1.0 / (STRIKE_GAIN_GLIDE_S * sample_rate_hz)).exp(),
             active: false,
             held: 0,
             sounded: 0,
@@ -626,7 +629,7 @@ impl Key {
         let glide = self.strike_gain != self.strike_gain_to;
         for v in scratch.iter_mut() {
             if glide {
-                self.strike_gain += (self.strike_gain_to - self.strike_gain) * STRIKE_GAIN_GLIDE;
+                self.strike_gain += (self.strike_gain_to - self.strike_gain) * self.strike_glide;
             }
             *v = *v * self.gain_per_n * self.fade * self.strike_gain;
             if self.fade_step != 0.0 {

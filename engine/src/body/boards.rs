@@ -157,20 +157,6 @@ fn along_polyline(points: &[(f64, f64)], t: f64) -> (f64, f64) {
     points.last().copied().unwrap_or((0.5, 0.5))
 }
 
-/// A microphone over the board: (x, y) in metres from the board's corner (x along
-/// the grain), height above the board in metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Mic {
-    /// Name of the position.
-    pub name: &'static str,
-    /// x, m.
-    pub x_m: f64,
-    /// y, m.
-    pub y_m: f64,
-    /// Height above the board, m.
-    pub height_m: f64,
-}
-
 /// An instrument's body.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BodyDesign {
@@ -184,8 +170,6 @@ pub struct BodyDesign {
     pub keys: RangeInclusive<u8>,
     /// Bridges and the keys on each.
     pub bridges: Vec<BridgeLine>,
-    /// Two microphone positions.
-    pub mics: [Mic; 2],
     /// Plausible range of the first body mode, Hz, and why.
     pub first_mode_range_hz: (f64, f64, &'static str),
 }
@@ -355,10 +339,6 @@ fn piano_grand() -> BodyDesign {
             BridgeLine { keys: 21..=40, points: &[(0.80, 0.78), (0.86, 0.62)] },
             BridgeLine { keys: 41..=108, points: &[(0.62, 0.86), (0.42, 0.55), (0.20, 0.18)] },
         ],
-        mics: [
-            Mic { name: "player", x_m: 0.1, y_m: 0.52, height_m: 0.3 },
-            Mic { name: "lid", x_m: 0.9, y_m: 1.2, height_m: 1.0 },
-        ],
         first_mode_range_hz: (
             30.0,
             120.0,
@@ -388,10 +368,6 @@ fn fortepiano() -> BodyDesign {
         air: None,
         keys: 29..=91,
         bridges: vec![BridgeLine { keys: 29..=91, points: &[(0.82, 0.85), (0.5, 0.5), (0.15, 0.15)] }],
-        mics: [
-            Mic { name: "player", x_m: 0.05, y_m: 0.35, height_m: 0.3 },
-            Mic { name: "lid", x_m: 0.8, y_m: 0.9, height_m: 0.8 },
-        ],
         first_mode_range_hz: (
             25.0,
             150.0,
@@ -422,10 +398,6 @@ fn clavichord() -> BodyDesign {
         air: Some(AirCavity { volume_m3: 0.55 * 0.3 * 0.1, holes: 1, hole_radius_m: 0.03, wall_m: 0.0025 }),
         keys: 36..=88,
         bridges: vec![BridgeLine { keys: 36..=88, points: &[(0.85, 0.85), (0.55, 0.55), (0.2, 0.2)] }],
-        mics: [
-            Mic { name: "player", x_m: 0.0, y_m: 0.3, height_m: 0.4 },
-            Mic { name: "above", x_m: 0.22, y_m: 0.14, height_m: 0.5 },
-        ],
         first_mode_range_hz: (
             50.0,
             500.0,
@@ -458,10 +430,6 @@ fn harpsichord() -> BodyDesign {
         air: Some(AirCavity { volume_m3: 1.6 * 0.6 * 0.15 * 0.6, holes: 1, hole_radius_m: 0.04, wall_m: 0.003 }),
         keys: 36..=86,
         bridges: vec![BridgeLine { keys: 36..=86, points: &[(0.88, 0.80), (0.55, 0.50), (0.12, 0.22)] }],
-        mics: [
-            Mic { name: "player", x_m: 0.0, y_m: 0.4, height_m: 0.4 },
-            Mic { name: "lid", x_m: 0.9, y_m: 0.8, height_m: 0.9 },
-        ],
         first_mode_range_hz: (
             20.0,
             150.0,
@@ -495,10 +463,6 @@ fn santoor() -> BodyDesign {
         bridges: vec![
             BridgeLine { keys: 52..=70, points: &[(0.75, 0.88), (0.75, 0.12)] },
             BridgeLine { keys: 71..=89, points: &[(0.30, 0.88), (0.30, 0.12)] },
-        ],
-        mics: [
-            Mic { name: "player", x_m: 0.39, y_m: -0.2, height_m: 0.4 },
-            Mic { name: "front", x_m: 0.39, y_m: 0.6, height_m: 1.0 },
         ],
         first_mode_range_hz: (
             80.0,
@@ -534,10 +498,6 @@ fn dulcimer() -> BodyDesign {
             BridgeLine { keys: 50..=61, points: &[(0.80, 0.88), (0.80, 0.15)] },
             BridgeLine { keys: 62..=79, points: &[(0.40, 0.90), (0.40, 0.10)] },
         ],
-        mics: [
-            Mic { name: "player", x_m: 0.41, y_m: -0.25, height_m: 0.5 },
-            Mic { name: "front", x_m: 0.41, y_m: 0.8, height_m: 1.2 },
-        ],
         first_mode_range_hz: (
             60.0,
             400.0,
@@ -571,10 +531,6 @@ fn cimbalom() -> BodyDesign {
         bridges: vec![
             BridgeLine { keys: 36..=51, points: &[(0.78, 0.88), (0.78, 0.12)] },
             BridgeLine { keys: 52..=88, points: &[(0.38, 0.90), (0.38, 0.10)] },
-        ],
-        mics: [
-            Mic { name: "player", x_m: 0.59, y_m: -0.3, height_m: 0.6 },
-            Mic { name: "front", x_m: 0.59, y_m: 1.2, height_m: 1.5 },
         ],
         first_mode_range_hz: (
             40.0,

@@ -189,28 +189,13 @@ fn ring_played_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, 
     // out (and the body does not radiate): the ring is what moves about it.
     let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
     let bridge = window.iter().map(|f| (f - mean) * (f - mean)).sum::<f64>() / window.len().max(1) as f64;
-    soundboard.silence();
-    let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
-    let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
     let (mut heard, mut counted) = (0.0, 0usize);
-    for (c, chunk) in played.chunks(CONTROL_BLOCK).enumerate() {
-        for zone in &mut zone_forces {
-            zone.fill(0.0);
+    play_board(soundboard, share, &played, gain / soundboard.gain(), |t, l, r| {
+        if t >= from {
+            heard += 0.5 * (l * l + r * r);
+            counted += 1;
         }
-        for (&z, w) in share.zones.iter().zip(share.weights) {
-            for (t, f) in chunk.iter().enumerate() {
-                zone_forces[z.min(MAX_ZONES - 1)][t] += f * w * gain / soundboard.gain();
-            }
-        }
-        let len = chunk.len();
-        soundboard.process(&zone_forces, &mut left[..len], &mut right[..len]);
-        for t in 0..len {
-            if c * CONTROL_BLOCK + t >= from {
-                heard += 0.5 * (left[t] * left[t] + right[t] * right[t]);
-                counted += 1;
-            }
-        }
-    }
+    });
     soundboard.silence();
     (heard / counted.max(1) as f64, bridge)
 }
@@ -251,13 +236,13 @@ impl Body<'_, '_> {
 }
 
 /// Run the board from rest under `force` spread over `share`'s zones times
-/// `scale`; the largest sample either microphone hears.
-fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64) -> f64 {
+/// `scale`, handing `heard` each sample's index and what the two microphones
+/// hear then.
+fn play_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64, mut heard: impl FnMut(usize, f64, f64)) {
     soundboard.silence();
     let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
     let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-    let mut peak = 0.0f64;
-    for chunk in force.chunks(CONTROL_BLOCK) {
+    for (c, chunk) in force.chunks(CONTROL_BLOCK).enumerate() {
         for zone in &mut zone_forces {
             zone.fill(0.0);
         }
@@ -268,8 +253,16 @@ fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale
         }
         let n = chunk.len();
         soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
-        peak = left[..n].iter().chain(&right[..n]).fold(peak, |m, v| m.max(v.abs()));
+        for t in 0..n {
+            heard(c * CONTROL_BLOCK + t, left[t], right[t]);
+        }
     }
+}
+
+/// [`play_board`]'s largest sample in either microphone.
+fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64) -> f64 {
+    let mut peak = 0.0f64;
+    play_board(soundboard, share, force, scale, |_, l, r| peak = peak.max(l.abs()).max(r.abs()));
     peak
 }
 
@@ -341,18 +334,6 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     table
 }
 
-/// How much louder the body hears `key` than the bridge-force output does, and
-/// its regulation. The key is first regulated (see [`regulation`]; only if
-/// `regulate`, as the bridge-force output is not); then a
-/// strike at `ringing` (the touch the level scale is measured at) is weighed
-/// through the body against the ring the bridge-force output would have at the
-/// key's ringing gain: so each key rings through the microphones where the
-/// instrument's level scale puts it, whatever the body does at its partials.
-/// Then, if its `loudest` strike's first milliseconds through the body (at its
-/// regulation) would peak above [`MIC_PEAK_CEILING_DBFS`], the key is turned
-/// down until they do not (the hammer's push on the bridge, which the
-/// bridge-force output caps, reaches the microphones only through the body's
-/// response to it).
 /// How an instrument's keys are voiced through its body.
 pub(super) struct Voicer<'a> {
     pub board: &'a BodyDesign,
@@ -374,6 +355,18 @@ impl Voicer<'_> {
     }
 }
 
+/// How much louder the body hears `key` than the bridge-force output does, and
+/// its regulation. The key is first regulated (see [`regulation`]; only if
+/// `regulate`, as the bridge-force output is not); then a
+/// strike at `ringing` (the touch the level scale is measured at) is weighed
+/// through the body against the ring the bridge-force output would have at the
+/// key's ringing gain: so each key rings through the microphones where the
+/// instrument's level scale puts it, whatever the body does at its partials.
+/// Then its `loudest` strike's first milliseconds through the body (at its
+/// regulation) give the cut that would keep them under
+/// [`MIC_PEAK_CEILING_DBFS`] (the hammer's push on the bridge, which the
+/// bridge-force output caps, reaches the microphones only through the body's
+/// response to it); the instrument's [`headroom`] decides from every key's.
 fn voice_through_body(
     key: &mut Key,
     midi_key: u8,

@@ -36,13 +36,26 @@ impl Damper {
     /// up by the sostenuto pedal) and the sustain pedal (0..=1 down) send it.
     pub fn follow(&mut self, block_s: f64, key_up_held: bool, sustain: f64) {
         let Some(d) = self.design else { return };
-        let target = match d {
-            d if d.pedal_only => (1.0 - sustain).clamp(0.0, 1.0),
-            _ if key_up_held => 0.0,
-            _ => (1.0 - sustain).clamp(0.0, 1.0),
-        };
+        let target = self.target(key_up_held, sustain);
         let step = block_s / d.travel_s.max(block_s);
         self.engaged += (target - self.engaged).clamp(-step, step);
+    }
+
+    /// Where the key (held, or kept up by the sostenuto pedal) and the sustain
+    /// pedal (0..=1 down) send it: 0 lifted (or no damper), 1 on the strings.
+    pub fn target(&self, key_up_held: bool, sustain: f64) -> f64 {
+        match self.design {
+            None => 0.0,
+            Some(d) if d.pedal_only => (1.0 - sustain).clamp(0.0, 1.0),
+            Some(_) if key_up_held => 0.0,
+            Some(_) => (1.0 - sustain).clamp(0.0, 1.0),
+        }
+    }
+
+    /// Put it where [`Self::target`] says at once: a silent key's damper, which
+    /// has not followed the pedal, when its strings start to ring with others.
+    pub fn settle(&mut self, key_up_held: bool, sustain: f64) {
+        self.engaged = self.target(key_up_held, sustain);
     }
 
     /// Whether it has moved since the strings' poles were last set.

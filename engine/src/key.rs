@@ -16,14 +16,14 @@ use crate::body::boards::ZoneShare;
 use crate::body::load::{BoardLoad, trade, unison_step};
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
-use crate::design::{ExciterDesign, KeyDesign, Touch, TouchRange};
+use crate::design::{ExciterDesign, KeyDesign, ResistiveBridge, Touch, TouchRange};
 use crate::exciter::hammer::HammerSpec;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{LANES, lane_sum};
-use crate::string::StringError;
+use crate::string::{StringError, StringModes};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 use crate::CONTROL_BLOCK;
@@ -38,6 +38,9 @@ const HAMMER_GONE_AFTER_S: f64 = 0.03;
 /// Una corda: the hammer meets the strings with its less worn, softer felt. The
 /// factor on K is our assumption (the physics reference has no measurement of it).
 const UNA_CORDA_STIFFNESS: f64 = 0.5;
+/// A string the shifted hammer meets with less than this share of its width
+/// is missed.
+const MISSED: f64 = 1e-3;
 /// A ringing key stops computing the modes that have fallen this far below its
 /// loudest (-120 dB; high partials die first, and a key's strings ring for
 /// tens of seconds after them)...
@@ -72,6 +75,20 @@ struct Note {
 /// tenth of a radian even at C8).
 pub(crate) const TRADE_BLOCKS: usize = 8;
 
+/// A key the other strings move stays sounding for this many control blocks
+/// after they last did (they trade every [`TRADE_BLOCKS`]).
+const DRIVEN_BLOCKS: usize = TRADE_BLOCKS + 1;
+
+/// Partials above this are not offered to the other strings through the
+/// body, Hz (the body's modes thin out above it, and the strings' partials
+/// there die within a second).
+const SYMPATHY_TOP_HZ: f64 = 5_000.0;
+
+/// Strings of a key whose first partials lie within this ratio of each other
+/// ring together as one group for the other strings (a dulcimer course's two
+/// sides do not).
+const SAME_PITCH: f64 = 0.01;
+
 /// The most strings of a unison that trade through the body (a santoor's
 /// course has four).
 const MAX_UNISON: usize = 8;
@@ -80,6 +97,23 @@ const MAX_UNISON: usize = 8;
 /// s (the new strike masks it; a step would click on the strings still
 /// ringing from the last).
 const STRIKE_GAIN_GLIDE_S: f64 = 0.005;
+
+/// A partial of a group of a key's strings tuned alike, as the other strings
+/// on the body meet it: its strings, its frequency and pole, and how the
+/// board moves it ([`BoardLoad::reach`], its own loss into the board).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Port {
+    /// The strings (bit i: string i) that sound it together.
+    pub strings: u8,
+    pub partial: usize,
+    pub f_hz: f64,
+    /// Its pole, s^-1 (decay and angular frequency).
+    pub lambda: Complex64,
+    /// c_n: its phasor moves by -c_n Y F per second for a bridge point moving at Y F, s^-1 / (s/kg).
+    pub reach: f64,
+    /// What it loses into the board by itself, s^-1 (Re eps_n).
+    pub loss_s: f64,
+}
 
 pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
@@ -93,6 +127,12 @@ pub(crate) struct Key {
     unison: Vec<(Complex64, Complex64)>,
     /// Control blocks since the unison last traded.
     blocks_since_trade: usize,
+    /// Moved by the other strings since the last control block (it does not
+    /// fall silent while they move it, however faintly).
+    driven: usize,
+    /// Its partials as the other strings on the body meet them (empty: strings
+    /// on the seed's rigid bridge, or a tangent's, which the listing damps).
+    ports: Vec<Port>,
     /// Re Y of the shared bridge point (0: strings not coupled), and the force each
     /// string put on it last sample.
     bridge_coupling_s_kg: f64,
@@ -169,7 +209,12 @@ impl Key {
         let mut modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
         // A course's strings trade energy through the board where they bear
         // together (a dulcimer's courses already move their bridge point).
-        let coupled = board.is_some() && (2..=MAX_UNISON).contains(&modes.len()) && design.bridge_coupling_s_kg <= 0.0;
+        // A tangent holds its strings where it stops them, and moves them
+        // itself: they do not trade freely.
+        let coupled = board.is_some()
+            && (2..=MAX_UNISON).contains(&modes.len())
+            && design.bridge_coupling_s_kg <= 0.0
+            && !matches!(design.exciter, ExciterDesign::Tangent { .. });
         let mut unison = Vec::new();
         if let Some(board) = board {
             let n = if coupled { modes.len() } else { 1 };
@@ -183,6 +228,12 @@ impl Key {
                 board.load(design.midi_key, design.resistive_bridge, n, string);
             }
         }
+        let ports = match (board, design.exciter) {
+            (Some(board), ExciterDesign::Hammer { .. } | ExciterDesign::Pluck { .. }) => {
+                ports(board, design.midi_key, design.resistive_bridge, &modes)
+            }
+            _ => Vec::new(),
+        };
         // Each hammer's strikes measured on the last string it reaches, with its
         // share of the hammer (as `press` splits it).
         for note in &mut notes {
@@ -221,6 +272,8 @@ impl Key {
             damper: Damper::new(design.damper),
             unison,
             blocks_since_trade: 0,
+            driven: 0,
+            ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
             force_now_n: vec![0.0; design.strings.len()],
@@ -284,7 +337,7 @@ impl Key {
     /// Re(z e^(lambda t)) at output gain, as (z, lambda). The key is left silent. Allocates; for
     /// voicing the key through the body when the instrument is built.
     pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<Vec<(Complex64, Complex64)>> {
-        self.press(0, touch, false, 1.0, 1.0);
+        self.press(0, touch, 0.0, 1.0, 1.0);
         for (b, chunk) in force.chunks_mut(CONTROL_BLOCK).enumerate() {
             chunk.fill(0.0);
             self.render(chunk, None);
@@ -315,6 +368,62 @@ impl Key {
     /// its strings do not trade so).
     pub fn unison(&self) -> &[(Complex64, Complex64)] {
         &self.unison
+    }
+
+    /// Its partials as the other strings on the body meet them.
+    pub fn ports(&self) -> &[Port] {
+        &self.ports
+    }
+
+    /// The summed phasor of partial `partial` over `strings` (bit i: string i), N.
+    #[inline]
+    pub fn partial_sum(&self, strings: u8, partial: usize) -> Complex64 {
+        let mut sum = Complex64::new(0.0, 0.0);
+        for (i, s) in self.strings.iter().enumerate() {
+            if strings & (1 << i) != 0 && partial < s.bank().running() {
+                sum += s.bank().phasor(partial);
+            }
+        }
+        sum
+    }
+
+    /// The bridge's motion moves partial `partial` of each of `strings` by
+    /// `delta` (N): a silent key whose damper would lie on its strings with
+    /// the pedal at `sustain` takes nothing, nor one that would be silent at
+    /// once (a drive under the cull floor for `silence`, full scale); one
+    /// that takes it starts to sound, its damper where the pedal has it and
+    /// its pitch bent by `bend`, and stays sounding while it is driven.
+    /// Allocates: no.
+    pub fn drive_partial(&mut self, strings: u8, partial: usize, delta: Complex64, sustain: f64, bend: f64, silence: f64) {
+        let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
+        if !self.active {
+            if self.damper.target(false, sustain) >= 1.0 || delta.re.abs() + delta.im.abs() < floor_n {
+                return;
+            }
+            self.wake(sustain, bend);
+        }
+        self.driven = DRIVEN_BLOCKS;
+        for (i, s) in self.strings.iter_mut().enumerate() {
+            if strings & (1 << i) == 0 || partial >= s.bank().len() {
+                continue;
+            }
+            let z = if partial < s.bank().running() { s.bank().phasor(partial) + delta } else { delta };
+            if partial < s.bank().running() || z.re.abs() + z.im.abs() >= floor_n {
+                s.bank_mut().set_phasor(partial, z);
+            }
+        }
+    }
+
+    /// Start sounding from rest without a stroke (its strings set ringing by
+    /// the others): the damper where the pedal has it, the poles set for it.
+    fn wake(&mut self, sustain: f64, bend: f64) {
+        self.active = true;
+        self.fade = 1.0;
+        self.fade_step = 0.0;
+        self.loudest_n = 0.0;
+        self.damper.settle(self.down() || self.sostenuto, sustain);
+        let pitch = self.pitch(bend);
+        self.set_poles(pitch);
     }
 
     /// Whether it is fading out (stolen, reset, or its instrument replaced).
@@ -389,7 +498,7 @@ impl Key {
     /// tangents, a lift for a plectrum), with the mallet's hardness `hardness`
     /// times as built. A touch in the other unit than the note's exciter is
     /// ignored.
-    pub fn press(&mut self, note: usize, touch: Touch, una_corda: bool, hardness: f64, bend: f64) {
+    pub fn press(&mut self, note: usize, touch: Touch, una_corda: f64, hardness: f64, bend: f64) {
         let Some(played) = self.notes.get(note) else { return };
         let fits = match played.exciter {
             ExciterDesign::Pluck { .. } => matches!(touch, Touch::PluckHeight { .. }),
@@ -433,15 +542,22 @@ impl Key {
         let strings = &mut self.strings[played.struck.clone()];
         match played.exciter {
             ExciterDesign::Hammer { mass_kg, law, position } => {
-                let n = strings.len();
-                // Una corda shifts the action: the first string of a unison is missed.
-                let skip = usize::from(una_corda && n >= 2);
-                let stiffness = law.stiffness * hardness * if una_corda { UNA_CORDA_STIFFNESS } else { 1.0 };
-                let felt = ContactLaw { stiffness, exponent: law.exponent };
-                let hammer = HammerSpec::one_of(n - skip, mass_kg, felt, touch, position);
+                // Una corda shifts the action sideways by `una_corda` of the
+                // way: the hammer meets the first string of a unison with that
+                // much less of its width (missing it at full shift), and the
+                // rest with its less worn, softer felt. Each string takes the
+                // hammer's mass and felt in proportion to the width it meets.
+                let shift = if strings.len() >= 2 { una_corda.clamp(0.0, 1.0) } else { 0.0 };
+                let soft = 1.0 - una_corda.clamp(0.0, 1.0) * (1.0 - UNA_CORDA_STIFFNESS);
+                let width = strings.len() as f64 - shift;
                 let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
-                for s in &mut strings[skip..] {
-                    s.strike_substepped(hammer, substeps);
+                for (i, s) in strings.iter_mut().enumerate() {
+                    let met = if i == 0 { 1.0 - shift } else { 1.0 };
+                    if met < MISSED {
+                        continue;
+                    }
+                    let felt = ContactLaw { stiffness: law.stiffness * hardness * soft * met / width, exponent: law.exponent };
+                    s.strike_substepped(HammerSpec::one_of(1, mass_kg * met / width, felt, touch, position), substeps);
                 }
             }
             ExciterDesign::Tangent { displacement_m, .. } => {
@@ -551,7 +667,11 @@ impl Key {
             self.strike_gain = self.strike_gain_to;
         }
         self.level = bound * self.gain_per_n * self.fade * self.strike_gain.max(self.strike_gain_to);
-        if settled && self.level < silence {
+        self.driven = self.driven.saturating_sub(1);
+        // A tangent held on its strings keeps pressing on the bridge: the key
+        // stays sounding (silencing it would drop that force at once, a thump).
+        let pressing = self.held != 0 && self.stays_on_strings();
+        if settled && self.level < silence && self.driven == 0 && !pressing {
             self.silence();
             return true;
         }
@@ -730,6 +850,44 @@ impl Key {
 
 /// A regulation's gain at touch `value` (see [`Key::regulate`]): interpolated
 /// in log gain over log touch, held at the ends.
+/// The partials of `modes` (a key's strings, loaded by `board` at `midi_key`'s
+/// bridge point) as the other strings meet them: strings tuned alike grouped,
+/// each group's partials below [`SYMPATHY_TOP_HZ`] with the first string's
+/// pole. Allocates.
+fn ports(board: &BoardLoad, midi_key: u8, resistive: ResistiveBridge, modes: &[StringModes]) -> Vec<Port> {
+    let first = |m: &StringModes| m.modes.first().map_or(0.0, |p| p.omega_rad_s);
+    let mut out = Vec::new();
+    let mut grouped = 0u32;
+    for (i, lead) in modes.iter().enumerate().take(8) {
+        if grouped & (1 << i) != 0 {
+            continue;
+        }
+        let strings = (i..modes.len().min(8))
+            .filter(|&j| (first(&modes[j]) / first(lead) - 1.0).abs() < SAME_PITCH)
+            .fold(0u8, |mask, j| mask | (1 << j));
+        grouped |= strings as u32;
+        let partials = (0..modes.len().min(8)).filter(|j| strings & (1 << j) != 0).map(|j| modes[j].modes.len()).min().unwrap_or(0);
+        let reach = board.reach(resistive, lead);
+        let eps = board.coupling(midi_key, resistive, lead);
+        for (n, mode) in lead.modes.iter().enumerate().take(partials) {
+            let f_hz = mode.omega_rad_s / std::f64::consts::TAU;
+            if f_hz > SYMPATHY_TOP_HZ {
+                break;
+            }
+            let sigma = if mode.q.is_finite() && mode.q > 0.0 { mode.omega_rad_s / (2.0 * mode.q) } else { 0.0 };
+            out.push(Port {
+                strings,
+                partial: n,
+                f_hz,
+                lambda: Complex64::new(-sigma, mode.omega_rad_s),
+                reach: reach[n],
+                loss_s: eps[n].re.max(0.0),
+            });
+        }
+    }
+    out
+}
+
 pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
     match table.iter().position(|&(t, _)| t >= value) {
         None => table.last().map_or(1.0, |p| p.1),

@@ -525,3 +525,19 @@ fn a_dulcimer_course_coupled_through_its_bridge_only_loses_energy() {
     assert!(levels.windows(2).all(|w| w[1] < w[0]), "the ringing grew: {levels:?}");
     assert!(out.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn a_held_clavichord_key_stays_pressed_after_its_sound_has_died() {
+    // The tangent keeps pressing on the string, and through it on the bridge,
+    // as long as the key is down: once the sound has died the key must not
+    // fall silent and drop that force (a thump, 0.2 of full scale at C6).
+    for output in [Output::BridgeForce, Output::Microphones] {
+        let settings = default_settings(InstrumentKind::Clavichord, FS).heard_through(output);
+        let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+        s.set_controls(Controls { output, ..Controls::default() });
+        let out = render(&mut s, 8.0, &[(0.0, Event::NoteOn { key: 84, velocity: 1.0 })], 256);
+        let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        let (ringing, after) = (peak(window(&out, 1.0, 2.0)), peak(window(&out, 2.0, 8.0)));
+        assert!(after <= ringing, "{output:?}: {after:e} after 2 s against {ringing:e} at 1-2 s");
+    }
+}

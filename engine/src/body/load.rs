@@ -156,9 +156,26 @@ impl BoardLoad<'_> {
     /// its real part by the voicing's damping. The strings of a unison share
     /// it: each loses eps_n on its own, and their sum pulls all of them.
     pub fn coupling(&self, midi_key: u8, resistive: ResistiveBridge, string: &StringModes) -> Vec<Complex64> {
+        let weights = self.weights(midi_key);
+        string
+            .modes
+            .iter()
+            .zip(self.reach(resistive, string))
+            .map(|(mode, reach)| {
+                let (re, im) = self.admittance_at(&weights, mode.omega_rad_s / (2.0 * PI));
+                Complex64::new(resistive.loss_scale * reach * re, reach * im)
+            })
+            .collect()
+    }
+
+    /// How far each mode of `string` moves per unit of bridge admittance:
+    /// c_n = w_n^2 / (2 m_n omega_n^2) with m_n = mu L / 2, times the scale
+    /// that puts the board's smooth mean at `resistive`'s Re Y ([`Self::load`]),
+    /// s^-1 per s/kg. A bridge point moving at Y times a force F moves the
+    /// mode's force phasor by -c_n Y F per second.
+    pub fn reach(&self, resistive: ResistiveBridge, string: &StringModes) -> Vec<f64> {
         let (mu, length) = (string.mass_per_length_kg_m, string.length_m);
         let (tension, bending) = (string.tension_n, string.bending_stiffness_n_m2);
-        let weights = self.weights(midi_key);
         string
             .modes
             .iter()
@@ -166,15 +183,38 @@ impl BoardLoad<'_> {
                 let omega = mode.omega_rad_s;
                 let k = mode.wavenumber_rad_m;
                 let weight = tension * k + bending * k * k * k;
-                let f_hz = omega / (2.0 * PI);
-                let (re, im) = self.admittance_at(&weights, f_hz);
-                let mean = self.smooth(f_hz);
+                let mean = self.smooth(omega / (2.0 * PI));
                 let scale = if mean > 0.0 { resistive.admittance_s_kg / mean } else { 0.0 };
-                // eps = w^2 Y / (2 m_n omega^2), m_n = mu L / 2.
-                let per_admittance = weight * weight / (mu * length * omega * omega) * scale;
-                Complex64::new(resistive.loss_scale * per_admittance * re, per_admittance * im)
+                weight * weight / (mu * length * omega * omega) * scale
             })
             .collect()
+    }
+
+    /// Each mode's shape at `midi_key`'s bridge point over the root of its
+    /// modal mass, kg^-1/2: what [`Self::transfer`] needs of a point.
+    pub fn shapes(&self, midi_key: u8) -> Vec<f64> {
+        let (x, y) = self.board.bridge_point(midi_key);
+        self.modes.iter().map(|mode| plate::shape_at(mode, x, y) / mode.modal_mass_kg.sqrt()).collect()
+    }
+
+    /// The transfer admittance between two bridge points at `f_hz` (velocity
+    /// at one per force at the other), s/kg, from the points' [`Self::shapes`]:
+    /// the resonances within an octave either side, weighted by the
+    /// irregularity (the continuum above the modes, and the modes far off,
+    /// add with random signs between two points apart and are left out).
+    pub fn transfer(&self, a: &[f64], b: &[f64], f_hz: f64) -> Complex64 {
+        let w = 2.0 * PI * f_hz;
+        let from = self.modes.partition_point(|m| m.frequency_hz < 0.5 * f_hz);
+        let to = self.modes.partition_point(|m| m.frequency_hz <= 2.0 * f_hz);
+        let mut y = Complex64::new(0.0, 0.0);
+        for k in from..to {
+            let (mode, (sa, sb)) = (&self.modes[k], (a.get(k), b.get(k)));
+            if let (Some(sa), Some(sb)) = (sa, sb) {
+                let (re, im) = plate::modal_term(sa * sb, 2.0 * PI * mode.frequency_hz, mode.loss_factor, w);
+                y += Complex64::new(re, im);
+            }
+        }
+        y * self.irregularity
     }
 }
 

@@ -302,7 +302,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
 mod tests {
     use super::*;
     use crate::design::InstrumentKind;
-    use crate::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
+    use crate::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
 
     fn build(spec: &StringSpec) -> crate::string::StringModes {
         spec.build().unwrap()
@@ -406,6 +406,10 @@ mod tests {
         let fs = 48_000.0;
         let instrument = Instrument::build(&default_settings(InstrumentKind::Dulcimer, fs)).unwrap();
         let (mut synth, _) = Synth::new(Box::new(instrument));
+        // The course alone: the other courses tuned to its sides' partials
+        // would take their share through the body too (sympathetic strings,
+        // measured in the coupling tests).
+        synth.set_controls(Controls { sympathy: 0.0, ..Controls::default() });
         let n = (seconds * fs) as usize;
         let (mut left, mut right) = (vec![0.0f32; n], vec![0.0f32; n]);
         let mut events = vec![TimedEvent::new(0, Event::NoteOn { key, velocity: 0.7 })];

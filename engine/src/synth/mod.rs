@@ -16,6 +16,7 @@
 mod body_voicing;
 mod event;
 pub mod scope;
+mod sympathy;
 mod workshop;
 
 use serde::{Deserialize, Serialize};
@@ -29,7 +30,8 @@ use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
-use crate::key::Key;
+use crate::key::{Key, TRADE_BLOCKS};
+use sympathy::Sympathy;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
@@ -126,6 +128,9 @@ pub struct Controls {
     pub bebung: f64,
     /// What is heard: the body through its microphones, or the bridge force.
     pub output: Output,
+    /// How strongly the strings ring with each other through the body, 0..=1
+    /// of the physics (sympathetic resonance).
+    pub sympathy: f64,
 }
 
 impl Default for Controls {
@@ -139,6 +144,7 @@ impl Default for Controls {
             bend_range_semitones: 2.0,
             bebung: 0.25,
             output: Output::Microphones,
+            sympathy: 1.0,
         }
     }
 }
@@ -168,6 +174,8 @@ pub struct Instrument {
     bridge: Bridge,
     soundboard: Soundboard,
     heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
+    /// The pairs of partials of different keys that trade through the body.
+    sympathy: Sympathy,
 }
 
 impl Instrument {
@@ -214,6 +222,10 @@ impl Instrument {
                 }
             }
         }
+        let sympathy = match &load {
+            Some(load) => Sympathy::build(load, &keys, (TRADE_BLOCKS * CONTROL_BLOCK) as f64 / fs),
+            None => Sympathy::none(),
+        };
         // The body's gain puts the middle key's partials where the bridge-force
         // output has them; every other key is voiced through the body to ring as
         // its own partials would there (a technician's regulation: the body still
@@ -260,6 +272,7 @@ impl Instrument {
             bridge: Bridge::default(),
             soundboard,
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
+            sympathy,
         })
     }
 
@@ -292,6 +305,11 @@ impl Instrument {
 
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
         self.keys.iter().flatten().filter(|k| k.is_sounding())
+    }
+
+    /// Pairs of partials of different keys that trade through the body.
+    pub fn sympathetic_pairs(&self) -> usize {
+        self.sympathy.len()
     }
 
     /// Modes of every string of every key (below [`MAX_MODE_FREQUENCY_HZ`]).
@@ -347,7 +365,8 @@ pub struct Synth {
     controls: Controls,
     sustain: f64,
     sostenuto: bool,
-    una_corda: bool,
+    /// How far una corda shifts the action, 0..=1.
+    una_corda: f64,
     /// Hand-held mallets' hardness from the mod wheel: a factor on the contact stiffness.
     hardness: f64,
     /// Pitch-wheel position -1..=1 and the frequency ratio it gives.
@@ -378,7 +397,7 @@ impl Synth {
             controls: Controls::default(),
             sustain: 0.0,
             sostenuto: false,
-            una_corda: false,
+            una_corda: 0.0,
             hardness: 1.0,
             wheel: 0.0,
             bend: 1.0,
@@ -552,14 +571,14 @@ impl Synth {
                 }
                 self.sostenuto = down;
             }
-            Event::UnaCorda(v) => self.una_corda = v >= 0.5,
+            Event::UnaCorda(v) if v.is_finite() => self.una_corda = (v as f64).clamp(0.0, 1.0),
             Event::ModWheel(v) if v.is_finite() => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
             Event::Pressure { key, pressure } if pressure.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.set_pressure(pressure as f64);
                 }
             }
-            Event::ModWheel(_) | Event::Pressure { .. } => {}
+            Event::ModWheel(_) | Event::Pressure { .. } | Event::UnaCorda(_) => {}
             Event::PitchBend(v) => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
@@ -578,7 +597,7 @@ impl Synth {
                 self.current.soundboard.fade_out(STEAL_FADE_S);
                 self.sustain = 0.0;
                 self.sostenuto = false;
-                self.una_corda = false;
+                self.una_corda = 0.0;
                 self.hardness = 1.0;
                 self.wheel = 0.0;
                 self.bend = 1.0;
@@ -627,6 +646,10 @@ impl Synth {
     fn control(&mut self, time: u32) {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
+        if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(TRADE_BLOCKS as u64) {
+            let current = &mut *self.current;
+            current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE);
+        }
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 key.set_bebung(bebung);

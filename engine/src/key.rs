@@ -23,6 +23,7 @@ use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{LANES, lane_sum};
+use crate::phantom::{Phantom, PhantomTable};
 use crate::string::{StringError, StringModes};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
@@ -79,6 +80,10 @@ pub(crate) const TRADE_BLOCKS: usize = 8;
 /// after they last did (they trade every [`TRADE_BLOCKS`]).
 const DRIVEN_BLOCKS: usize = TRADE_BLOCKS + 1;
 
+/// Keys above this make no phantom partials (Conklin's and Bank's are the
+/// bass's and tenor's; above C5 the strings' products are masked).
+const LAST_PHANTOM_KEY: u8 = 72;
+
 /// Partials above this are not offered to the other strings through the
 /// body, Hz (the body's modes thin out above it, and the strings' partials
 /// there die within a second).
@@ -130,6 +135,12 @@ pub(crate) struct Key {
     /// Moved by the other strings since the last control block (it does not
     /// fall silent while they move it, however faintly).
     driven: usize,
+    /// Its strings' stretch pulling on the bridge at sums of their partials
+    /// (none above [`LAST_PHANTOM_KEY`] or off the body), whether any product
+    /// is over the cull floor this block, and at what level.
+    phantom: Option<Phantom>,
+    phantom_on: bool,
+    phantom_level: f64,
     /// Its partials as the other strings on the body meet them (empty: strings
     /// on the seed's rigid bridge, or a tangent's, which the listing damps).
     ports: Vec<Port>,
@@ -228,6 +239,12 @@ impl Key {
                 board.load(design.midi_key, design.resistive_bridge, n, string);
             }
         }
+        let phantom = match (board, design.exciter, modes.get(design.struck.start)) {
+            (Some(_), ExciterDesign::Hammer { .. }, Some(lead)) if design.midi_key <= LAST_PHANTOM_KEY => {
+Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).map(Phantom::new)
+            }
+            _ => None,
+        };
         let ports = match (board, design.exciter) {
             (Some(board), ExciterDesign::Hammer { .. } | ExciterDesign::Pluck { .. }) => {
                 ports(board, design.midi_key, design.resistive_bridge, &modes)
@@ -273,6 +290,9 @@ impl Key {
             unison,
             blocks_since_trade: 0,
             driven: 0,
+            phantom,
+            phantom_on: false,
+            phantom_level: 1.0,
             ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
@@ -457,6 +477,11 @@ impl Key {
     }
 
     /// How much deeper full pressure presses a tangent, as a fraction of its depth.
+    /// How loud its phantom partials are against the physics (0: none).
+    pub fn set_phantom(&mut self, level: f64) {
+        self.phantom_level = level;
+    }
+
     pub fn set_bebung(&mut self, bebung: f64) {
         self.bebung = bebung;
     }
@@ -661,6 +686,9 @@ impl Key {
             bound += string_bound;
             loudest_n = loudest_n.max(string_loudest);
         }
+        if let Some(p) = &mut self.phantom {
+            self.phantom_on = p.start_block(&self.strings, self.phantom_level, floor_n);
+        }
         // A string still being played reports an infinite loudest: no relative culling next time.
         self.loudest_n = if loudest_n.is_finite() { loudest_n } else { 0.0 };
         if (self.strike_gain - self.strike_gain_to).abs() < 1e-6 * self.strike_gain_to {
@@ -738,6 +766,10 @@ impl Key {
         self.fade_step = 0.0;
         self.level = 0.0;
         self.loudest_n = 0.0;
+        self.phantom_on = false;
+        if let Some(p) = &mut self.phantom {
+            p.silence();
+        }
     }
 
     /// Drive `bridge` for its stretch with the key's force at its output gain,
@@ -791,6 +823,14 @@ impl Key {
         for (o, a) in out.iter_mut().zip(acc.iter()) {
             *o += lane_sum(a);
         }
+        self.add_phantom(out);
+    }
+
+    /// Add its strings' stretch pulling on the bridge to `out`.
+    fn add_phantom(&mut self, out: &mut [f64]) {
+        if let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) {
+            p.add_to(out);
+        }
     }
 
     /// [`Self::render`] for a course whose strings share a bridge point: each
@@ -819,6 +859,7 @@ impl Key {
             }
             std::mem::swap(&mut self.bridge_force_n, &mut self.force_now_n);
         }
+        self.add_phantom(out);
     }
 
     /// Take over a ringing key of the same instrument whose tables were rebuilt.

@@ -58,6 +58,7 @@ pub const CONTROL_BLOCK: usize = 64;
 
 pub mod body;
 pub(crate) mod damper;
+pub mod phantom;
 pub mod design;
 pub mod exciter;
 pub(crate) mod key;

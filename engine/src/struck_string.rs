@@ -86,6 +86,11 @@ impl StruckString {
         &mut self.bank
     }
 
+    /// Mode `index`'s free step: its phasor turns by this each sample.
+    pub fn pole(&self, index: usize) -> num_complex::Complex64 {
+        self.audio.pole(index)
+    }
+
     pub fn sample_rate_hz(&self) -> f64 {
         1.0 / self.audio.step_s
     }

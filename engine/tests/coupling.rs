@@ -160,3 +160,64 @@ fn una_corda_shifts_the_action_quieter_and_darker_and_half_way_between() {
     // Half a shift lies between.
     assert!(measured[1].1 < level && measured[1].1 > full_level, "{measured:?}");
 }
+
+/// The local maxima of `spec` over `floor` between `from_hz` and `to_hz`, Hz.
+fn peaks(spec: &[f64], bin: f64, floor: f64, from_hz: f64, to_hz: f64) -> Vec<f64> {
+    (((from_hz / bin) as usize).max(1)..((to_hz / bin) as usize).min(spec.len() - 1))
+        .filter(|&i| spec[i] > floor && spec[i] >= spec[i - 1] && spec[i] > spec[i + 1])
+        .map(|i| i as f64 * bin)
+        .collect()
+}
+
+/// The largest of `spec` within `half_hz` of `f_hz`.
+fn level_near(spec: &[f64], bin: f64, f_hz: f64, half_hz: f64) -> f64 {
+    let (a, b) = (((f_hz - half_hz) / bin).floor().max(0.0) as usize, ((f_hz + half_hz) / bin).ceil() as usize);
+    spec[a..=b.min(spec.len() - 1)].iter().cloned().fold(0.0, f64::max)
+}
+
+#[test]
+fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
+    const C2: u8 = 36;
+    let design = struck_engine::design::key_design(InstrumentKind::Piano, &Default::default(), C2, 20_000.0).unwrap();
+    let string = design.strings[design.struck.start].build().unwrap();
+    let partial = |n: usize| string.partial_hz(n);
+    let mut ratios = Vec::new();
+    for velocity in [64.0f32 / 127.0, 1.0] {
+        let render = |phantom: f64| {
+            let mut s = synth(InstrumentKind::Piano, Controls { phantom, ..Controls::default() });
+            play(&mut s, &[(0.0, Event::NoteOn { key: C2, velocity })], 2.1)
+        };
+        let (plain, full) = (render(0.0), render(1.0));
+        let (s0, bin) = spectrum(seconds(&plain, 0.05, 2.05));
+        let (s1, _) = spectrum(seconds(&full, 0.05, 2.05));
+        let loudest = s0.iter().cloned().fold(0.0, f64::max);
+        let transverse = peaks(&s0, bin, 1e-4 * loudest, 20.0, 6_000.0);
+        // Sums of two of the first 12 partials lying 4 Hz or more from every
+        // transverse peak.
+        let sums: Vec<f64> = (1..=12)
+            .flat_map(|n| (n..=12).map(move |m| (n, m)))
+            .map(|(n, m)| partial(n) + partial(m))
+            .filter(|f| transverse.iter().all(|t| (t - f).abs() >= 4.0))
+            .collect();
+        let mut levels: Vec<(f64, f64)> = sums
+            .iter()
+            .map(|&f| {
+                let nearest = transverse.iter().cloned().min_by(|a, b| (a - f).abs().total_cmp(&(b - f).abs())).unwrap();
+                let own = level_near(&s1, bin, f, 1.5);
+                (20.0 * (own / level_near(&s0, bin, nearest, 0.6)).log10(), 20.0 * (own / level_near(&s0, bin, f, 1.5)).log10())
+            })
+            .collect();
+        levels.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let median = levels[levels.len() / 2];
+        println!(
+            "C2 at velocity {:.0}: {} sums away from the partials; median {:.1} dB re the nearest partial, {:.1} dB over the plain string's spectrum there",
+            velocity * 127.0,
+            levels.len(),
+            median.0,
+            median.1
+        );
+        ratios.push(median);
+    }
+    assert!(ratios[1].0 - ratios[0].0 >= 4.0, "{ratios:?}");
+    assert!(ratios[1].1 >= 10.0, "at fortissimo the sums stand only {:.1} dB over the plain spectrum", ratios[1].1);
+}

@@ -131,6 +131,9 @@ pub struct Controls {
     /// How strongly the strings ring with each other through the body, 0..=1
     /// of the physics (sympathetic resonance).
     pub sympathy: f64,
+    /// How loud the strings' phantom partials are, 0..=4 times the physics
+    /// (above 1: the wood's own, which the strings' model leaves out).
+    pub phantom: f64,
 }
 
 impl Default for Controls {
@@ -145,6 +148,7 @@ impl Default for Controls {
             bebung: 0.25,
             output: Output::Microphones,
             sympathy: 1.0,
+            phantom: 1.0,
         }
     }
 }
@@ -646,6 +650,7 @@ impl Synth {
     fn control(&mut self, time: u32) {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
+        let phantom = self.controls.phantom.clamp(0.0, 4.0);
         if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(TRADE_BLOCKS as u64) {
             let current = &mut *self.current;
             current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE);
@@ -653,6 +658,7 @@ impl Synth {
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 key.set_bebung(bebung);
+                key.set_phantom(phantom);
                 if key.control(block_s, sustain, bend, SILENCE) {
                     for k in key.take_sounded() {
                         if self.ended.len() < self.ended.capacity() {

@@ -225,7 +225,11 @@ impl Key {
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
             bridge_point: BridgePoint::panned(design.pan),
-            body_boost: if design.gain_per_n > 0.0 { (design.ring_gain_per_n / design.gain_per_n).max(1.0) } else { 1.0 },
+            body_boost: if design.gain_per_n > 0.0 {
+                (design.ring_gain_per_n / design.gain_per_n).max(1.0)
+            } else {
+                1.0
+            },
             regulation: Vec::new(),
             strike_gain: 1.0,
             strike_gain_to: 1.0,
@@ -738,4 +742,3 @@ pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
         }
     }
 }
-

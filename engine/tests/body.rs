@@ -185,7 +185,11 @@ fn each_partial_decays_at_its_own_rate_through_the_body() {
         let rates = partial_decays_db_s(&l, &r, 27.5, 10);
         let (lo, hi) = rates.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
         let shown: Vec<String> = rates.iter().map(|v| format!("{v:.1}")).collect();
-        println!("piano A0 {output:?}: partials 1-10 decay at {} dB/s (slowest to fastest {:.2}x)", shown.join(" "), hi / lo);
+        println!(
+            "piano A0 {output:?}: partials 1-10 decay at {} dB/s (slowest to fastest {:.2}x)",
+            shown.join(" "),
+            hi / lo
+        );
         assert!(rates.iter().all(|&v| v > 0.0), "{output:?}: {rates:?}");
         spreads.push(hi / lo);
     }
@@ -228,7 +232,12 @@ fn a_crescendo_never_dips_on_any_key_of_any_instrument() {
                         shown.join(" ")
                     );
                 }
-                println!("{kind}: the largest fall is {:.2} dB (key {}, velocity {})", worst.2.max(0.0), worst.0, worst.1);
+                println!(
+                    "{kind}: the largest fall is {:.2} dB (key {}, velocity {})",
+                    worst.2.max(0.0),
+                    worst.0,
+                    worst.1
+                );
             });
         }
     });
@@ -297,8 +306,10 @@ fn every_instrument_survives_mono_from_every_perspective() {
         for kind in InstrumentKind::ALL {
             scope.spawn(move || {
                 for perspective in Perspective::ALL {
-                    let settings =
-                        InstrumentSettings { mics: MicPlacement { perspective, width: 1.0 }, ..default_settings(kind, FS) };
+                    let settings = InstrumentSettings {
+                        mics: MicPlacement { perspective, width: 1.0 },
+                        ..default_settings(kind, FS)
+                    };
                     let (mut s, _) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
                     let (mut mono, mut pair) = (0.0, 0.0);
                     let mut worst = (0u8, 0.0f64);
@@ -314,7 +325,12 @@ fn every_instrument_survives_mono_from_every_perspective() {
                         }
                     }
                     let kept = db(mono) - db(pair);
-                    println!("{kind} {}: mono keeps {kept:.1} dB over the compass; worst note {} at {:.1} dB", perspective.name(), worst.0, worst.1);
+                    println!(
+                        "{kind} {}: mono keeps {kept:.1} dB over the compass; worst note {} at {:.1} dB",
+                        perspective.name(),
+                        worst.0,
+                        worst.1
+                    );
                     assert!(kept >= -3.0, "{kind} {}: mono keeps {kept:.1} dB", perspective.name());
                 }
             });
@@ -329,7 +345,8 @@ fn print_stereo_for_every_perspective() {
     use struck_engine::synth::InstrumentSettings;
     for kind in InstrumentKind::ALL {
         for perspective in Perspective::ALL {
-            let settings = InstrumentSettings { mics: MicPlacement { perspective, width: 1.0 }, ..default_settings(kind, FS) };
+            let settings =
+                InstrumentSettings { mics: MicPlacement { perspective, width: 1.0 }, ..default_settings(kind, FS) };
             let (mut s, _) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
             let range = kind.key_range();
             let mut line = format!("{kind} {}:", perspective.name());

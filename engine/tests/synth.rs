@@ -1,10 +1,8 @@
 //! The real-time synth: keys, pedals, stealing, block-size independence, rebuilds.
 
-use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
-use struck_engine::synth::{
-    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop,
-};
 use struck_engine::body::Output;
+use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
+use struck_engine::synth::{Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop};
 
 const FS: f64 = 48_000.0;
 

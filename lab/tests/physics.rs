@@ -32,7 +32,13 @@ fn c1_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c1_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 0.012, law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 }, speed_m_s: 2.0, position: 0.135 }
+    HammerSpec {
+        mass_kg: 0.012,
+        law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 },
+        speed_m_s: 2.0,
+        position: 0.135,
+        hysteresis: None,
+    }
 }
 
 /// The santoor string of the seed (steel, 0.5 mm, 0.4 m, A4) and its 1 g mallet, as in S1.
@@ -51,7 +57,13 @@ fn santoor_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn santoor_mallet(position: f64) -> HammerSpec {
-    HammerSpec { mass_kg: 0.001, law: ContactLaw { stiffness: 1.0e6, exponent: 1.0 }, speed_m_s: 1.0, position }
+    HammerSpec {
+        mass_kg: 0.001,
+        law: ContactLaw { stiffness: 1.0e6, exponent: 1.0 },
+        speed_m_s: 1.0,
+        position,
+        hysteresis: None,
+    }
 }
 
 /// Chaigne & Askenfelt's C4 string and hammer at 2.5 m/s, as in P4_V2p5.
@@ -70,7 +82,13 @@ fn c4_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c4_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 2.97e-3, law: ContactLaw { stiffness: 4.5e9, exponent: 2.5 }, speed_m_s: 2.5, position: 0.12 }
+    HammerSpec {
+        mass_kg: 2.97e-3,
+        law: ContactLaw { stiffness: 4.5e9, exponent: 2.5 },
+        speed_m_s: 2.5,
+        position: 0.12,
+        hysteresis: None,
+    }
 }
 
 /// Broadwood C7 treble: three strings taken together, a hammer twice their mass.
@@ -89,7 +107,13 @@ fn c7_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c7_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 0.006, law: ContactLaw { stiffness: 1.0e12, exponent: 3.0 }, speed_m_s: 1.0, position: 0.09 }
+    HammerSpec {
+        mass_kg: 0.006,
+        law: ContactLaw { stiffness: 1.0e12, exponent: 3.0 },
+        speed_m_s: 1.0,
+        position: 0.09,
+        hysteresis: None,
+    }
 }
 
 /// Strike and record the bridge force for `seconds`.

@@ -514,7 +514,10 @@ mod tests {
             let instrument = Instrument::build(&settings).unwrap();
             let (mut synth, _) = Synth::new(Box::new(instrument));
             // The level scale is the bridge-force output's (the body's microphones are voiced from it).
-            synth.set_controls(crate::synth::Controls { output: crate::body::Output::BridgeForce, ..Default::default() });
+            synth.set_controls(crate::synth::Controls {
+                output: crate::body::Output::BridgeForce,
+                ..Default::default()
+            });
             let range = kind.key_range();
             let mut keys: Vec<u8> = range.clone().step_by(3).chain([*range.end()]).collect();
             keys.dedup();

@@ -7,12 +7,12 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
+use crate::CONTROL_BLOCK;
 use crate::body::boards::{BodyDesign, MAX_ZONES, ZoneShare};
 use crate::body::load::trade;
 use crate::body::soundboard::{HeardModes, Soundboard};
 use crate::design::{Touch, TouchRange};
 use crate::key::{Key, TRADE_BLOCKS, regulated};
-use crate::CONTROL_BLOCK;
 
 /// How loud a key's partials come through the body, Pa/N: the pressure per
 /// newton where the key bears on the bridge, power-averaged over both
@@ -147,7 +147,8 @@ fn unison_ring(
     let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
     let partials = strings.iter().map(Vec::len).min().unwrap_or(0).min(unison.len());
     // The strongest PROBE_PARTIALS partials by their strings' own ring.
-    let alone = |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
+    let alone =
+        |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
     let mut order: Vec<usize> = (0..partials).filter(|&i| strings.iter().all(|s| s[i].1.im > 0.0)).collect();
     order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
     order.truncate(PROBE_PARTIALS);
@@ -299,10 +300,8 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     let (lo, hi) = range.bounds();
     let step = (hi / lo).powf(1.0 / (REGULATION_TOUCHES - 1) as f64);
     let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
-    let mut points: Vec<(f64, f64)> = (0..REGULATION_TOUCHES)
-        .map(|i| lo * step.powi(i as i32))
-        .map(|t| (t, ring_at(t)))
-        .collect();
+    let mut points: Vec<(f64, f64)> =
+        (0..REGULATION_TOUCHES).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
     // Where the ring changes fast between two touches (a hard strike's
     // spectrum swinging through a partial), look closer.
     for _ in 0..REGULATION_REFINEMENTS {
@@ -432,4 +431,3 @@ pub(super) fn headroom(voiced: &[Voiced]) -> f64 {
     let index = ((1.0 - HEADROOM_QUANTILE) * cuts.len() as f64).floor() as usize;
     cuts.get(index.min(cuts.len().saturating_sub(1))).copied().unwrap_or(1.0).min(1.0)
 }
-

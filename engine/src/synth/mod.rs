@@ -228,7 +228,9 @@ impl Instrument {
         // the keys dealt out in turn (a treble key costs more than a bass one).
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
         let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
-        for (i, (k, key)) in keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate() {
+        for (i, (k, key)) in
+            keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate()
+        {
             hands[i % cores].push((k, key));
         }
         let voicer = Voicer { board: &board, heard_modes: &heard, range, ringing, regulate: settings.strings_on_body };
@@ -238,11 +240,12 @@ impl Instrument {
                 .map(|hand| {
                     let (voicer, mut body) = (&voicer, soundboard.clone());
                     scope.spawn(move || {
-                        hand.into_iter().map(|(k, key)| {
-                            let v = voicer.voice(key, k, &mut body);
-                            (k, key, v)
-                        })
-                        .collect::<Vec<_>>()
+                        hand.into_iter()
+                            .map(|(k, key)| {
+                                let v = voicer.voice(key, k, &mut body);
+                                (k, key, v)
+                            })
+                            .collect::<Vec<_>>()
                     })
                 })
                 .collect();

@@ -27,9 +27,9 @@ use struck_engine::preset::Preset;
 use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
+use super::output::Staged;
 use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
-use super::output::Staged;
 
 /// Sample rates rendered, Hz.
 pub const SAMPLE_RATES_HZ: std::ops::RangeInclusive<u32> = 22_050..=192_000;

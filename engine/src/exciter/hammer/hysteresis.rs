@@ -23,7 +23,7 @@
 //!
 //!   M1 = a M0 + (1 - a) Q,   a = exp(-h / tau),
 //!
-//! and its mean over the step is g M0 + (1 - g) Q with g = (1 - a) / (h / tau)
+//! and its mean over the step is g M0 + (1 - g) Q with g = (1 - a) / r, r = h / tau
 //! (integrating the equation above over the step). The force held over the step
 //! is the elastic one less eps times that mean:
 //!
@@ -31,7 +31,17 @@
 //!
 //! So C1 = C_hat - W F is the elastic equation with C_hat raised by W eps g M0
 //! and W scaled by s: the same increasing, convex g(C1), the same bracketed
-//! Newton solve, one root. If F < 0 there, the felt cannot push: F = 0 and
+//! Newton solve, one root. (Holding the drive at its mean keeps that so; a drive
+//! moving through the step would weigh K C1^alpha against the elastic mean's
+//! 1/(alpha + 1) and the equation could lose its one root.)
+//!
+//! The force reported at a step's end (what a [`crate::exciter::ContactObserver`]
+//! sees) is K C1^alpha - eps M1' with M1' a second account of the memory, kept
+//! with the drive moving evenly from K C0^alpha to K C1^alpha through each step,
+//! M1' = a M0' + (g - a) K C0^alpha + (1 - g) K C1^alpha: the held drive lags
+//! the step's end by half a step, which shows when tau is as short as a step.
+//! The memory the steps are solved with is the held drive's.
+//! If F < 0 there, the felt cannot push: F = 0 and
 //! C1 = C_hat (the root of the equation with F clamped at 0, which is increasing
 //! too). The elastic part keeps its energy account exactly; what the hammer and
 //! string lose over a stroke is the work sum F (C1 - C0), the loop's area.
@@ -75,8 +85,10 @@ pub struct Memory {
     mean_weight: f64,
     /// exp(-T / tau) over an audio sample.
     relax_audio: f64,
-    /// M, N.
+    /// M, N (as the held drive leaves it: what the next step is solved with).
     force_n: f64,
+    /// M' at the last step's end (the drive moving through each step), N.
+    at_end_n: f64,
 }
 
 impl Memory {
@@ -95,6 +107,7 @@ impl Memory {
             mean_weight: if r > 0.0 { one_less / r } else { 1.0 },
             relax_audio: (-sample_s / h.tau_s).exp(),
             force_n: 0.0,
+            at_end_n: 0.0,
         })
     }
 
@@ -103,14 +116,16 @@ impl Memory {
         self.force_n
     }
 
-    /// The felt's force where its elastic force is `elastic_n`: never negative.
+    /// The felt's force at the end of the last step, where its elastic force is
+    /// `elastic_n`: never negative.
     pub fn force_at(&self, elastic_n: f64) -> f64 {
-        (elastic_n - self.epsilon * self.force_n).max(0.0)
+        (elastic_n - self.epsilon * self.at_end_n).max(0.0)
     }
 
     /// An audio sample out of contact: the memory relaxes.
     pub fn relax_free(&mut self) {
         self.force_n *= self.relax_audio;
+        self.at_end_n *= self.relax_audio;
     }
 
     /// One sub-step, as [`ContactLaw::step`] (same arguments; `guess.force_n` a
@@ -126,6 +141,7 @@ impl Memory {
     ) -> (ContactStep, Felt) {
         if start.compression_m <= 0.0 && c_hat <= 0.0 {
             self.force_n *= self.relax;
+            self.at_end_n *= self.relax;
             let end = Felt { compression_m: c_hat, force_n: 0.0, energy_j: 0.0 };
             return (ContactStep { compression_m: c_hat, step_force_n: 0.0, iterations: 0 }, end);
         }
@@ -142,7 +158,9 @@ impl Memory {
             end = free_end;
             force = 0.0;
         }
-        self.force_n = self.relax * self.force_n + (1.0 - self.relax) * step.step_force_n;
+        let (a, g) = (self.relax, self.mean_weight);
+        self.at_end_n = a * self.at_end_n + (g - a) * start.force_n + (1.0 - g) * end.force_n;
+        self.force_n = a * self.force_n + (1.0 - a) * step.step_force_n;
         (ContactStep { step_force_n: force, ..step }, end)
     }
 }
@@ -184,8 +202,10 @@ mod tests {
             let f = q - h.epsilon * (g * m0 + (1.0 - g) * q);
             assert!(f > 0.0 && (s.step_force_n - f).abs() <= 1e-9 * f, "tau {tau_s}: {} vs {f}", s.step_force_n);
             assert!((c1 - (c_hat - w * f)).abs() <= 1e-12 * c_hat, "tau {tau_s}");
-            let a = (-1e-6 / tau_s).exp();
+            let (a, r) = ((-1e-6 / tau_s).exp(), 1e-6 / tau_s);
             assert!((m.force_n - (a * m0 + (1.0 - a) * q)).abs() <= 1e-9 * q, "tau {tau_s}");
+            let m1 = ((1.0 - a) / r - a) * LAW.force_n(c0) + (1.0 - (1.0 - a) / r) * LAW.force_n(c1);
+            assert!((m.at_end_n - m1).abs() <= 1e-9 * m1, "tau {tau_s}");
             assert_eq!(end.compression_m, c1);
         }
     }

@@ -136,12 +136,13 @@ fn relative(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
 
-/// Stulov's felt at the ends of the brief's range and beyond: a memory as long
-/// as the contact, one of a few sub-steps, and a strong one.
-const FELTS: [Hysteresis; 3] = [
+/// Stulov's felt: a memory as long as the contact, one of a few sub-steps, a
+/// strong one, and the piano's default (`design::common::FELT_HYSTERESIS`).
+const FELTS: [Hysteresis; 4] = [
     Hysteresis { epsilon: 0.3, tau_s: 1e-4 },
     Hysteresis { epsilon: 0.2, tau_s: 1e-6 },
     Hysteresis { epsilon: 0.9, tau_s: 1e-5 },
+    Hysteresis { epsilon: 0.2, tau_s: 1e-5 },
 ];
 
 #[test]

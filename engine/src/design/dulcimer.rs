@@ -295,6 +295,8 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.course_gain_per_n(&played, peak_n, pan),
         ring_gain_per_n: LEVEL.course_ring_gain_per_n(&played, peak_n),
         pan,
+        // A bare wooden hammer: elastic, as the santoor's mallet.
+        hammer_hysteresis: None,
     })
 }
 

@@ -13,6 +13,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+use crate::exciter::hammer::Hysteresis;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::StringSpec;
 
@@ -323,6 +324,9 @@ pub struct KeyDesign {
     pub ring_gain_per_n: f64,
     /// Stereo position, -1 (left) to 1 (right).
     pub pan: f64,
+    /// The hysteresis of the felt (or head) of every hammer that plays these
+    /// strings, the key's own and its shared keys' (None: elastic, or no hammer).
+    pub hammer_hysteresis: Option<Hysteresis>,
 }
 
 /// The design of `midi_key` on `kind` with `voicing`, in equal temperament at

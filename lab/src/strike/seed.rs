@@ -195,7 +195,7 @@ pub fn key_case(
     let string = course_string(&key, Damping::PerModeQ(q), MAX_FREQUENCY_HZ)?;
     let exciter = match key.exciter {
         ExciterDesign::Hammer { mass_kg, law, position } => {
-            ExciterSpec::Hammer(HammerSpec { mass_kg, law, speed_m_s, position, hysteresis: None })
+            ExciterSpec::Hammer(HammerSpec { mass_kg, law, speed_m_s, position, hysteresis: key.hammer_hysteresis })
         }
         ExciterDesign::Tangent { displacement_m, .. } => {
             ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m })

@@ -52,6 +52,11 @@ impl Damper {
         }
     }
 
+    /// Whether the key has one.
+    pub fn exists(&self) -> bool {
+        self.design.is_some()
+    }
+
     /// Put it where [`Self::target`] says at once: a silent key's damper, which
     /// has not followed the pedal, when its strings start to ring with others.
     pub fn settle(&mut self, key_up_held: bool, sustain: f64) {

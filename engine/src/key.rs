@@ -12,12 +12,13 @@ use std::ops::Range;
 
 use num_complex::Complex64;
 
+use crate::action;
 use crate::body::boards::ZoneShare;
 use crate::body::load::{BoardLoad, trade, unison_step};
 use crate::body::{Bridge, BridgePoint};
 use crate::damper::Damper;
-use crate::design::{ExciterDesign, KeyDesign, ResistiveBridge, Touch, TouchRange};
-use crate::exciter::hammer::HammerSpec;
+use crate::design::{ExciterDesign, InstrumentKind, KeyDesign, ResistiveBridge, Touch};
+use crate::exciter::hammer::{HammerSpec, Hysteresis};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::pluck::PluckSpec;
@@ -68,6 +69,8 @@ struct Note {
     pitch_ratio: f64,
     /// How finely its hammer's strikes are sub-stepped (none for other exciters).
     substeps: Option<SubstepPlan>,
+    /// Its hammer's felt's hysteresis (None: elastic).
+    hysteresis: Option<Hysteresis>,
 }
 
 /// A unison's strings trade through the body every this many control blocks
@@ -83,6 +86,14 @@ const DRIVEN_BLOCKS: usize = TRADE_BLOCKS + 1;
 /// Keys above this make no phantom partials (Conklin's and Bank's are the
 /// bass's and tenor's; above C5 the strings' products are masked).
 const LAST_PHANTOM_KEY: u8 = 72;
+
+/// The dampers lifting set ringing only partials under this, Hz (the bend
+/// their weight leaves is a broad one).
+const LIFT_TOP_HZ: f64 = 2_000.0;
+
+/// The dampers leave their strings within this many control blocks of the
+/// pedal passing half way (10.7 ms at 48 kHz).
+const LIFT_SPREAD_BLOCKS: usize = 8;
 
 /// Partials above this are not offered to the other strings through the
 /// body, Hz (the body's modes thin out above it, and the strings' partials
@@ -103,6 +114,18 @@ const MAX_UNISON: usize = 8;
 /// ringing from the last).
 const STRIKE_GAIN_GLIDE_S: f64 = 0.005;
 
+impl Note {
+    /// Where its damper sits on the strings: over the place its hammer
+    /// strikes or its plectrum plucks (None: a tangent's strings, damped by
+    /// the listing cloth).
+    fn damper_position(&self) -> Option<f64> {
+        match self.exciter {
+            ExciterDesign::Hammer { position, .. } | ExciterDesign::Pluck { position } => Some(position),
+            ExciterDesign::Tangent { .. } => None,
+        }
+    }
+}
+
 /// A partial of a group of a key's strings tuned alike, as the other strings
 /// on the body meet it: its strings, its frequency and pole, and how the
 /// board moves it ([`BoardLoad::reach`], its own loss into the board).
@@ -118,6 +141,23 @@ pub(crate) struct Port {
     pub reach: f64,
     /// What it loses into the board by itself, s^-1 (Re eps_n).
     pub loss_s: f64,
+}
+
+/// The levels of the action's sounds, 1 = the physics ([`crate::action`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ActionNoise {
+    /// The key striking its bed.
+    pub key_bed: f64,
+    /// A damper's felt landing on its strings.
+    pub damper: f64,
+    /// The dampers leaving the strings when the pedal lifts them.
+    pub pedal: f64,
+}
+
+impl Default for ActionNoise {
+    fn default() -> Self {
+        Self { key_bed: 1.0, damper: 1.0, pedal: 1.0 }
+    }
 }
 
 pub(crate) struct Key {
@@ -141,6 +181,17 @@ pub(crate) struct Key {
     phantom: Option<Phantom>,
     phantom_on: bool,
     phantom_level: f64,
+    /// The action's sounds: whether the key stops on a bed (a keyboard's
+    /// hammer key), the bed's pulse in play (samples since the key bottomed,
+    /// hammer speed), and their levels (key bed, damper landing, dampers
+    /// lifting; 1 = the physics).
+    key_bed: bool,
+    /// Its strings bear on the body (not the seed's rigid bridge).
+    on_body: bool,
+    bed_pulse: Option<(usize, f64)>,
+    noise: ActionNoise,
+    /// Control blocks until the pedal's lift lets its strings go.
+    lift_in: Option<usize>,
     /// Its partials as the other strings on the body meet them (empty: strings
     /// on the seed's rigid bridge, or a tangent's, which the listing damps).
     ports: Vec<Port>,
@@ -193,21 +244,24 @@ pub(crate) struct Key {
 }
 
 impl Key {
-    /// Build every table the key will need, for touches up to `touch.max()`,
-    /// its strings loaded by `board` (None: by the design's resistive bridge).
+    /// Build every table the key will need on a `kind`, for touches up to its
+    /// touch range's top, its strings loaded by `board` (None: by the design's
+    /// resistive bridge).
     /// Allocates; off the audio thread.
     pub fn build(
         design: KeyDesign,
         sample_rate_hz: f64,
-        touch: TouchRange,
+        kind: InstrumentKind,
         board: Option<&BoardLoad>,
     ) -> Result<Self, StringError> {
+        let (touch, hand_mallets) = (kind.touch_range(), kind.hand_mallets());
         let mut notes = vec![Note {
             midi_key: design.midi_key,
             struck: design.struck.clone(),
             exciter: design.exciter,
             pitch_ratio: 1.0,
             substeps: None,
+            hysteresis: design.hammer_hysteresis,
         }];
         notes.extend(design.shared.iter().map(|s| Note {
             midi_key: s.midi_key,
@@ -215,6 +269,7 @@ impl Key {
             exciter: s.exciter,
             pitch_ratio: s.pitch_ratio,
             substeps: None,
+            hysteresis: design.hammer_hysteresis,
         }));
         notes.truncate(MAX_NOTES);
         let mut modes = design.strings.iter().map(|spec| spec.build()).collect::<Result<Vec<_>, _>>()?;
@@ -245,6 +300,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
             _ => None,
         };
+        // The action sounds through the body (the bridge-force output is the
+        // seed's strings alone). A hand-held mallet has no key; a tangent is
+        // the key's stop.
+        let on_body = board.is_some();
+        let key_bed = on_body && matches!(design.exciter, ExciterDesign::Hammer { .. }) && !hand_mallets;
         let ports = match (board, design.exciter) {
             (Some(board), ExciterDesign::Hammer { .. } | ExciterDesign::Pluck { .. }) => {
                 ports(board, design.midi_key, design.resistive_bridge, &modes)
@@ -257,7 +317,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last), Some(top_speed_m_s)) =
                 (note.exciter, note.struck.clone().last(), touch.top_speed_m_s())
             {
-                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position);
+                let hammer =
+                    HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position).with_hysteresis(note.hysteresis);
                 note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
             }
         }
@@ -293,6 +354,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             phantom,
             phantom_on: false,
             phantom_level: 1.0,
+            key_bed,
+            on_body,
+            bed_pulse: None,
+            noise: ActionNoise::default(),
+            lift_in: None,
             ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
@@ -300,7 +366,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
             bridge_point: BridgePoint::panned(design.pan),
-            body_boost: if design.gain_per_n > 0.0 { (design.ring_gain_per_n / design.gain_per_n).max(1.0) } else { 1.0 },
+            body_boost: if design.gain_per_n > 0.0 {
+                (design.ring_gain_per_n / design.gain_per_n).max(1.0)
+            } else {
+                1.0
+            },
             regulation: Vec::new(),
             strike_gain: 1.0,
             strike_gain_to: 1.0,
@@ -342,6 +412,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// gain `table` gives there (see `synth::body_voicing`).
     pub fn regulate(&mut self, table: Vec<(f64, f64)>) {
         self.regulation = table;
+    }
+
+    /// Its regulation: the gain of a strike by its touch (empty: 1).
+    pub fn regulation(&self) -> &[(f64, f64)] {
+        &self.regulation
     }
 
     /// Bear on the body's zones as `share` says, `voicing` times louder there
@@ -477,6 +552,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     }
 
     /// How much deeper full pressure presses a tangent, as a fraction of its depth.
+    /// How loud the action's sounds are against the physics.
+    pub fn set_noise(&mut self, noise: ActionNoise) {
+        self.noise = noise;
+    }
+
     /// How loud its phantom partials are against the physics (0: none).
     pub fn set_phantom(&mut self, level: f64) {
         self.phantom_level = level;
@@ -567,6 +647,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         let strings = &mut self.strings[played.struck.clone()];
         match played.exciter {
             ExciterDesign::Hammer { mass_kg, law, position } => {
+                if self.key_bed {
+                    self.bed_pulse = Some((0, touch));
+                }
                 // Una corda shifts the action sideways by `una_corda` of the
                 // way: the hammer meets the first string of a unison with that
                 // much less of its width (missing it at full shift), and the
@@ -582,7 +665,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                         continue;
                     }
                     let felt = ContactLaw { stiffness: law.stiffness * hardness * soft * met / width, exponent: law.exponent };
-                    s.strike_substepped(HammerSpec::one_of(1, mass_kg * met / width, felt, touch, position), substeps);
+                    let hammer = HammerSpec::one_of(1, mass_kg * met / width, felt, touch, position);
+                    s.strike_substepped(hammer.with_hysteresis(played.hysteresis), substeps);
                 }
             }
             ExciterDesign::Tangent { displacement_m, .. } => {
@@ -599,13 +683,16 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
     }
 
-    /// Note `note` comes up.
-    pub fn release(&mut self, note: usize) {
+    /// Note `note` comes up at release `velocity` (0..=1), the sustain pedal at `sustain`.
+    pub fn release(&mut self, note: usize, velocity: f64, sustain: f64) {
         let bit = 1u32 << note;
         if self.held & bit == 0 {
             return;
         }
         self.held &= !bit;
+        if self.held == 0 && !self.sostenuto && self.damper.target(false, sustain) >= 0.5 {
+            self.land_damper(note, velocity);
+        }
         let Some(ExciterDesign::Tangent { .. }) = self.notes.get(note).map(|n| n.exciter) else { return };
         if self.held == 0 {
             let struck = self.notes[note].struck.clone();
@@ -628,10 +715,56 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
     }
 
-    /// Every note of the course comes up.
-    pub fn release_all(&mut self) {
+    /// Every note of the course comes up, the sustain pedal at `sustain`.
+    pub fn release_all(&mut self, sustain: f64) {
         for note in 0..self.notes.len() {
-            self.release(note);
+            self.release(note, 0.5, sustain);
+        }
+    }
+
+    /// The key's damper lands on its strings as `note` comes up at release
+    /// `velocity` (0..=1): its momentum goes into them at the place its note
+    /// strikes, through its soft felt ([`action`]); the damper then stops
+    /// them. Nothing for a key without a damper, one the pedal holds off, or
+    /// a damper only the pedal works.
+    fn land_damper(&mut self, note: usize, velocity: f64) {
+        let Some(position) = self.notes.get(note).and_then(|n| n.damper_position()) else { return };
+        if self.noise.damper <= 0.0 || !self.active || !self.on_body {
+            return;
+        }
+        let impulse = action::DAMPER_MASS_KG * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
+        let share = -impulse / self.strings.len().max(1) as f64;
+        for s in &mut self.strings {
+            let (string, bank) = s.string_and_bank_mut();
+            action::kick_modes(string, position, share, action::DAMPER_CONTACT_S, |i, dv| bank.nudge(i, 0.0, dv));
+        }
+    }
+
+    /// The sustain pedal lifts the damper off its strings, which spring back
+    /// from the bend its weight held them in ([`action`]) and ring. Nothing
+    /// for a key without a damper or one already lifted (held, or kept up by
+    /// the sostenuto pedal); a silent key starts to sound, its damper where
+    /// `sustain` has it and its pitch bent by `bend`. Allocates: no.
+    pub fn lift_damper(&mut self, sustain: f64, bend: f64) {
+        if self.noise.pedal <= 0.0 || !self.on_body || !self.damper.exists() || self.down() || self.sostenuto {
+            return;
+        }
+        if !self.active {
+            self.wake(sustain, bend);
+        }
+        // The dampers leave their strings over a spread of the pedal's travel
+        // (the tray is not regulated to the sample), each at its own moment.
+        self.lift_in = Some(self.midi_key as usize * 5 % LIFT_SPREAD_BLOCKS);
+    }
+
+    /// The damper, lifted, lets its strings go: they spring back from the bend
+    /// its weight held them in.
+    fn let_strings_go(&mut self) {
+        let Some(position) = self.notes.first().and_then(|n| n.damper_position()) else { return };
+        let level = self.noise.pedal;
+        for s in &mut self.strings {
+            let (string, bank) = s.string_and_bank_mut();
+            action::damper_bend(string, position, LIFT_TOP_HZ, |i, dq| bank.nudge(i, -dq * level, 0.0));
         }
     }
 
@@ -668,6 +801,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         if self.damper.moved() || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
             self.set_poles(pitch);
         }
+        match self.lift_in {
+            Some(0) => {
+                self.lift_in = None;
+                self.let_strings_go();
+            }
+            Some(n) => self.lift_in = Some(n - 1),
+            None => {}
+        }
         let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
         self.blocks_since_trade += 1;
         if self.blocks_since_trade >= TRADE_BLOCKS {
@@ -699,7 +840,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         // A tangent held on its strings keeps pressing on the bridge: the key
         // stays sounding (silencing it would drop that force at once, a thump).
         let pressing = self.held != 0 && self.stays_on_strings();
-        if settled && self.level < silence && self.driven == 0 && !pressing {
+        if settled && self.level < silence && self.driven == 0 && !pressing && self.lift_in.is_none() {
             self.silence();
             return true;
         }
@@ -767,6 +908,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.level = 0.0;
         self.loudest_n = 0.0;
         self.phantom_on = false;
+        self.bed_pulse = None;
+        self.lift_in = None;
         if let Some(p) = &mut self.phantom {
             p.silence();
         }
@@ -791,12 +934,25 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 }
             }
         }
+        self.add_key_bed(scratch);
         if self.fade <= 0.0 && self.fade_step < 0.0 {
             // Faded out: silent from the next sample; reported at the next control tick.
             self.fade_step = 0.0;
             self.fade = 0.0;
         }
         bridge.drive(self.bridge_point, scratch);
+    }
+
+    /// Add the key bed's pulse, while it lasts, to `out` (at output gain).
+    fn add_key_bed(&mut self, out: &mut [f64]) {
+        let Some((start, speed)) = self.bed_pulse else { return };
+        let fs = self.strings.first().map_or(48_000.0, StruckString::sample_rate_hz);
+        let gain = self.gain_per_n * self.fade * self.noise.key_bed;
+        for (t, o) in out.iter_mut().enumerate() {
+            *o += gain * action::key_bed_force_n(start + t, speed, fs);
+        }
+        let done = start + out.len();
+        self.bed_pulse = (done as f64 / fs < action::KEY_BED_PULSE_S).then_some((done, speed));
     }
 
     /// Add the key's summed bridge force (N) over `out.len()` samples to `out`,
@@ -940,4 +1096,3 @@ pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
         }
     }
 }
-

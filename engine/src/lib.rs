@@ -56,6 +56,7 @@
 /// a block, and the keys drive the bridge in stretches of at most one.
 pub const CONTROL_BLOCK: usize = 64;
 
+pub mod action;
 pub mod body;
 pub(crate) mod damper;
 pub mod phantom;

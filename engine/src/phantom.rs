@@ -78,14 +78,16 @@ pub fn first_longitudinal_hz(string: &StringModes) -> f64 {
 /// The longitudinal answer H at angular frequency `w` of a string whose
 /// first longitudinal mode is at `w1`.
 fn longitudinal_answer(w: f64, w1: f64) -> Complex64 {
+    let share = |j: usize| 8.0 / ((2 * j + 1) as f64 * PI).powi(2);
+    // The modes above those carried answer statically.
+    let above = 1.0 - (0..LONGITUDINAL_MODES).map(share).sum::<f64>();
     (0..LONGITUDINAL_MODES)
         .map(|j| {
-            let k = (2 * j + 1) as f64;
-            let wk = k * w1;
-            let x = w / wk;
-            Complex64::new(8.0 / (k * PI).powi(2), 0.0) / Complex64::new(1.0 - x * x, x / LONGITUDINAL_Q)
+            let x = w / ((2 * j + 1) as f64 * w1);
+            Complex64::new(share(j), 0.0) / Complex64::new(1.0 - x * x, x / LONGITUDINAL_Q)
         })
-        .sum()
+        .sum::<Complex64>()
+        + above
 }
 
 /// The products a string's stretch makes at its bridge: partials (n, m) and

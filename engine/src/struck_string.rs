@@ -14,11 +14,11 @@
 // The audio thread steps every string: nothing here may panic.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-pub use crate::exciter::{ContactObserver, Tick};
 use crate::exciter::Exciter;
 use crate::exciter::hammer::{Hammer, HammerRig, HammerSpec, Substep};
 use crate::exciter::pluck::{PluckRig, PluckSpec};
 use crate::exciter::tangent::{TangentMotion, TangentRig, TangentSpec};
+pub use crate::exciter::{ContactObserver, Tick};
 use crate::modal_bank::{LANES, ModalBank, StepTable};
 use crate::string::StringModes;
 
@@ -78,6 +78,11 @@ impl StruckString {
 
     pub fn bank(&self) -> &ModalBank {
         &self.bank
+    }
+
+    /// The string and its modes' state, to be changed between samples.
+    pub fn string_and_bank_mut(&mut self) -> (&StringModes, &mut ModalBank) {
+        (&self.string, &mut self.bank)
     }
 
     /// The modes' state, to be changed between samples (a unison's strings
@@ -158,7 +163,7 @@ impl StruckString {
             Exciter::Hammer(rig) if rig.position() == spec.position => rig,
             _ => HammerRig::new(&self.string, &self.bank, &self.audio, &self.fine, spec.position),
         };
-        rig.throw(&self.bank, spec, fine);
+        rig.throw(&self.bank, spec, fine, self.fine[fine].step.step_s, self.audio.step_s);
         self.exciter = Exciter::Hammer(rig);
     }
 

@@ -2,8 +2,8 @@
 //! README's "The body" and in engine/src/body/boards.rs). Run with `cargo test -- --nocapture` to see the printed numbers.
 
 use struck_engine::body::boards::{BodyDesign, design};
-use struck_engine::design::InstrumentKind;
 use struck_engine::body::plate::{self, log_mean_abs_mobility, mean_mobility, modal_density};
+use struck_engine::design::InstrumentKind;
 
 /// Modes carried explicitly for the mobility checks, Hz.
 const MAX_HZ: f64 = 10_000.0;
@@ -125,7 +125,9 @@ fn piano_mobility_rises_above_1_khz() {
         let low = log_mean_abs_mobility(&d.plate, &modes, lim, p, (500.0, 1000.0), 300);
         let high = log_mean_abs_mobility(&d.plate, &modes, lim, p, (4000.0, 8000.0), 300);
         let db = 20.0 * (high / low).log10();
-        println!("key {key}: |Y| 0.5-1 kHz {low:.2e}, 4-8 kHz {high:.2e} s/kg: {db:+.1} dB over ~3 octaves (Wogram: about +18 dB)");
+        println!(
+            "key {key}: |Y| 0.5-1 kHz {low:.2e}, 4-8 kHz {high:.2e} s/kg: {db:+.1} dB over ~3 octaves (Wogram: about +18 dB)"
+        );
         assert!(high > low, "key {key}: mobility must not fall above 1 kHz");
     }
 }
@@ -136,7 +138,9 @@ fn piano_mobility_rises_above_1_khz() {
 /// inter-rib frequency or 10 kHz, continuum above).
 #[test]
 fn report_table() {
-    println!("| instrument | board a x b (m) | h (mm) | mass (kg) | first mode (Hz) | air (Hz) | < 1 kHz | < 5 kHz | < 10 kHz | n/(4M) (s/kg) | key | abs Y 100 Hz | 1 kHz | 5 kHz |");
+    println!(
+        "| instrument | board a x b (m) | h (mm) | mass (kg) | first mode (Hz) | air (Hz) | < 1 kHz | < 5 kHz | < 10 kHz | n/(4M) (s/kg) | key | abs Y 100 Hz | 1 kHz | 5 kHz |"
+    );
     for i in InstrumentKind::ALL {
         let d = design(i);
         let p = &d.plate;

@@ -85,7 +85,7 @@ fn the_sustain_pedal_lets_the_other_strings_ring_with_a_held_note() {
 #[ignore = "not met yet: the board carries too little from C4 to the treble (-95 dB)"]
 fn after_a_staccato_note_the_undamped_treble_rings_on_at_its_own_pitch() {
     let velocity = 80.0 / 127.0;
-    let events = [(0.0, Event::NoteOn { key: C4, velocity }), (0.15, Event::NoteOff { key: C4 })];
+    let events = [(0.0, Event::NoteOn { key: C4, velocity }), (0.15, Event::NoteOff { key: C4, velocity: 0.5 })];
     let mut s = synth(InstrumentKind::Piano, Controls::default());
     let ringing = play(&mut s, &events, 2.5);
     let mut s = synth(InstrumentKind::Piano, Controls { sympathy: 0.0, ..Controls::default() });
@@ -220,4 +220,44 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
     }
     assert!(ratios[1].0 - ratios[0].0 >= 4.0, "{ratios:?}");
     assert!(ratios[1].1 >= 10.0, "at fortissimo the sums stand only {:.1} dB over the plain spectrum", ratios[1].1);
+}
+
+/// Peak and RMS level of `x`, dB full scale.
+fn peak_db(x: &[f64]) -> f64 {
+    20.0 * x.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-15).log10()
+}
+
+#[test]
+fn the_action_sounds_follow_the_touch_and_the_release() {
+    let mut s = synth(InstrumentKind::Piano, Controls::default());
+    let note = play(&mut s, &[(0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 })], 0.5);
+    let note_db = peak_db(&note);
+    // The key bed: what the key adds, the same note with its bed silenced taken away.
+    let mut bed = Vec::new();
+    for velocity in [40.0f32 / 127.0, 1.0] {
+        let events = [(0.0, Event::NoteOn { key: C4, velocity })];
+        let with = play(&mut synth(InstrumentKind::Piano, Controls::default()), &events, 0.3);
+        let without = play(&mut synth(InstrumentKind::Piano, Controls { key_noise: 0.0, ..Controls::default() }), &events, 0.3);
+        let thump: Vec<f64> = with.iter().zip(&without).map(|(a, b)| a - b).collect();
+        bed.push(peak_db(&thump) - note_db);
+    }
+    println!("key bed: {:.1} dB (velocity 40), {:.1} dB (127) re the peak of C4 at velocity 80", bed[0], bed[1]);
+    assert!(bed[1] > bed[0] + 6.0 && bed[1] < -6.0 && bed[0] > -60.0, "{bed:?}");
+    // The damper landing: a harder release lands harder.
+    let mut landing = Vec::new();
+    for release in [0.1f32, 1.0] {
+        let events = [(0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 }), (0.5, Event::NoteOff { key: C4, velocity: release })];
+        let with = play(&mut synth(InstrumentKind::Piano, Controls::default()), &events, 1.0);
+        let without = play(&mut synth(InstrumentKind::Piano, Controls { damper_noise: 0.0, ..Controls::default() }), &events, 1.0);
+        let thud: Vec<f64> = with.iter().zip(&without).map(|(a, b)| a - b).collect();
+        landing.push(peak_db(&thud) - note_db);
+    }
+    println!("damper landing: {:.1} dB (release 0.1), {:.1} dB (release 1) re the note's peak", landing[0], landing[1]);
+    assert!(landing[1] > landing[0] + 12.0 && landing[1] < -10.0 && landing[1] > -70.0, "{landing:?}");
+    // The dampers lifting together: the pedal alone sets the strings ringing.
+    let lifted = play(&mut synth(InstrumentKind::Piano, Controls::default()), &[(0.0, Event::Sustain(1.0))], 1.0);
+    let quiet = play(&mut synth(InstrumentKind::Piano, Controls { pedal_noise: 0.0, ..Controls::default() }), &[(0.0, Event::Sustain(1.0))], 1.0);
+    let (lift_db, quiet_db) = (peak_db(&lifted) - note_db, peak_db(&quiet));
+    println!("dampers lifting: {lift_db:.1} dB re the note's peak (off: {quiet_db:.1} dBFS)");
+    assert!((-70.0..=-20.0).contains(&lift_db) && quiet_db < -200.0, "{lift_db:.1} {quiet_db:.1}");
 }

@@ -92,7 +92,7 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             let key = 36 + rng.below(60) as u8;
             let event = match rng.below(10) {
                 0..=3 => Event::NoteOn { key, velocity: 0.05 + 0.95 * rng.unit_f32() },
-                4..=6 => Event::NoteOff { key },
+                4..=6 => Event::NoteOff { key, velocity: rng.unit_f32() },
                 7 => Event::Sustain(rng.unit_f32()),
                 8 => Event::PitchBend(2.0 * rng.unit_f32() - 1.0),
                 _ => [

@@ -1,10 +1,8 @@
 //! The real-time synth: keys, pedals, stealing, block-size independence, rebuilds.
 
-use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
-use struck_engine::synth::{
-    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop,
-};
 use struck_engine::body::Output;
+use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
+use struck_engine::synth::{Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop};
 
 const FS: f64 = 48_000.0;
 
@@ -106,15 +104,15 @@ fn session() -> Vec<(f64, Event)> {
         (0.010, Event::NoteOn { key: 60, velocity: 0.5 }),
         (0.0101, Event::NoteOn { key: 64, velocity: 0.9 }),
         (0.05, Event::Sustain(1.0)),
-        (0.13, Event::NoteOff { key: 60 }),
+        (0.13, Event::NoteOff { key: 60, velocity: 0.5 }),
         (0.2, Event::PitchBend(0.3)),
         (0.21, Event::NoteOn { key: 60, velocity: 1.0 }),
-        (0.25, Event::NoteOff { key: 64 }),
+        (0.25, Event::NoteOff { key: 64, velocity: 0.5 }),
         (0.3, Event::Sustain(0.4)),
         (0.31, Event::UnaCorda(1.0)),
         (0.33, Event::NoteOn { key: 72, velocity: 0.3 }),
         (0.38, Event::Sostenuto(1.0)),
-        (0.4, Event::NoteOff { key: 72 }),
+        (0.4, Event::NoteOff { key: 72, velocity: 0.5 }),
         (0.41, Event::Sustain(0.0)),
         (0.45, Event::AllNotesOff),
     ]
@@ -148,7 +146,7 @@ fn restriking_a_ringing_key_continues_without_a_click() {
 #[test]
 fn dampers_pedals_and_half_pedal() {
     let level_after_release = |extra: &[(f64, Event)]| {
-        let mut events = vec![(0.0, Event::NoteOn { key: 48, velocity: 0.8 }), (0.3, Event::NoteOff { key: 48 })];
+        let mut events = vec![(0.0, Event::NoteOn { key: 48, velocity: 0.8 }), (0.3, Event::NoteOff { key: 48, velocity: 0.5 })];
         events.extend_from_slice(extra);
         let out = render(&mut synth(InstrumentKind::Piano), 1.2, &events, 512);
         rms(window(&out, 0.9, 1.2)) / rms(window(&out, 0.2, 0.3))
@@ -174,7 +172,7 @@ fn santoor_and_dulcimer_note_offs_change_nothing() {
     for kind in [InstrumentKind::Santoor, InstrumentKind::Dulcimer] {
         let strike = (0.0, Event::NoteOn { key: 62, velocity: 0.8 });
         let held = render(&mut synth(kind), 1.0, &[strike], 512);
-        let released = render(&mut synth(kind), 1.0, &[strike, (0.1, Event::NoteOff { key: 62 })], 512);
+        let released = render(&mut synth(kind), 1.0, &[strike, (0.1, Event::NoteOff { key: 62, velocity: 0.5 })], 512);
         assert!(rms(window(&held, 0.8, 1.0)) > 0.2 * rms(window(&held, 0.05, 0.1)), "{kind}: no ringing");
         assert!(held.iter().zip(&released).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind}: the note-off acted");
     }
@@ -215,7 +213,7 @@ fn a_cimbalom_is_damped_unless_the_pedal_is_down() {
     let events = [(0.0, Event::Sustain(1.0)), (0.01, Event::NoteOn { key: 60, velocity: 0.8 })];
     let held = render(&mut synth(InstrumentKind::Cimbalom), 0.5, &events, 512);
     let mut with_off = events.to_vec();
-    with_off.push((0.1, Event::NoteOff { key: 60 }));
+    with_off.push((0.1, Event::NoteOff { key: 60, velocity: 0.5 }));
     let released = render(&mut synth(InstrumentKind::Cimbalom), 0.5, &with_off, 512);
     assert!(held.iter().zip(&released).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
@@ -255,7 +253,7 @@ fn polyphony_steals_the_quietest_released_key() {
     let events = [
         (0.0, Event::NoteOn { key: 60, velocity: 1.0 }),
         (0.01, Event::NoteOn { key: 64, velocity: 0.2 }),
-        (0.02, Event::NoteOff { key: 64 }),
+        (0.02, Event::NoteOff { key: 64, velocity: 0.5 }),
         (0.1, Event::NoteOn { key: 67, velocity: 0.8 }),
     ];
     render(&mut s, 0.2, &events, 64);
@@ -271,7 +269,7 @@ fn polyphony_steals_the_quietest_released_key() {
 #[test]
 fn silent_keys_stop_and_are_reported() {
     let mut s = synth(InstrumentKind::Harpsichord);
-    let events = [(0.0, Event::NoteOn { key: 84, velocity: 1.0 }), (0.05, Event::NoteOff { key: 84 })];
+    let events = [(0.0, Event::NoteOn { key: 84, velocity: 1.0 }), (0.05, Event::NoteOff { key: 84, velocity: 0.5 })];
     let mut ended = Vec::new();
     let total = (3.0 * FS) as usize;
     let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
@@ -389,7 +387,7 @@ fn the_tail_reaches_exact_silence_without_subnormals() {
     let out = render(
         &mut s,
         12.0,
-        &[(0.0, Event::NoteOn { key: 72, velocity: 0.8 }), (0.1, Event::NoteOff { key: 72 })],
+        &[(0.0, Event::NoteOn { key: 72, velocity: 0.8 }), (0.1, Event::NoteOff { key: 72, velocity: 0.5 })],
         512,
     );
     assert!(out.iter().all(|v| !v.is_subnormal()), "a subnormal sample");
@@ -496,7 +494,7 @@ fn on_a_fretted_clavichord_the_higher_tangent_wins() {
     let events = [
         (0.0, Event::NoteOn { key: 60, velocity: 0.8 }),
         (1.0, Event::NoteOn { key: 61, velocity: 0.8 }),
-        (2.0, Event::NoteOff { key: 61 }),
+        (2.0, Event::NoteOff { key: 61, velocity: 0.5 }),
     ];
     let out = render(&mut synth, 3.0, &events, 256);
     let f = |from, to, guess| fine_peak(window(&out, from, to), guess);

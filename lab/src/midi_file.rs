@@ -173,7 +173,7 @@ pub fn read(bytes: &[u8], sample_rate_hz: u32, options: ReadOptions) -> Result<S
                 events.push((at, event));
                 match event {
                     Event::NoteOn { key, .. } => events.extend(pressure.note_on(key, channel).map(|e| (at, e))),
-                    Event::NoteOff { key } => pressure.note_off(key),
+                    Event::NoteOff { key, .. } => pressure.note_off(key),
                     _ => {}
                 }
             }
@@ -316,8 +316,10 @@ fn events_of(message: midly::MidiMessage) -> impl Iterator<Item = Event> {
         MidiMessage::NoteOn { key, vel } if vel.as_int() > 0 => {
             out[0] = Some(Event::NoteOn { key: key.as_int(), velocity: f32::from(vel.as_int()) / 127.0 });
         }
-        MidiMessage::NoteOn { key, .. } | MidiMessage::NoteOff { key, .. } => {
-            out[0] = Some(Event::NoteOff { key: key.as_int() });
+        // A note-on at velocity 0 carries no release velocity: MIDI's default, 64.
+        MidiMessage::NoteOn { key, .. } => out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: 64.0 / 127.0 }),
+        MidiMessage::NoteOff { key, vel } => {
+            out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: f32::from(vel.as_int()) / 127.0 });
         }
         MidiMessage::Controller { controller, value } => {
             out = Event::from_controller(controller.as_int(), f32::from(value.as_int()) / 127.0);

@@ -113,6 +113,7 @@ pub fn contact_string() -> (StruckString, HammerSpec) {
         law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 },
         speed_m_s: 2.5,
         position: 0.135,
+        hysteresis: None,
     };
     (StruckString::new(string, 48_000.0, DEFAULT_SUBSTEPS), hammer)
 }

@@ -32,7 +32,13 @@ fn c1_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c1_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 0.012, law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 }, speed_m_s: 2.0, position: 0.135 }
+    HammerSpec {
+        mass_kg: 0.012,
+        law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 },
+        speed_m_s: 2.0,
+        position: 0.135,
+        hysteresis: None,
+    }
 }
 
 /// The santoor string of the seed (steel, 0.5 mm, 0.4 m, A4) and its 1 g mallet, as in S1.
@@ -51,7 +57,13 @@ fn santoor_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn santoor_mallet(position: f64) -> HammerSpec {
-    HammerSpec { mass_kg: 0.001, law: ContactLaw { stiffness: 1.0e6, exponent: 1.0 }, speed_m_s: 1.0, position }
+    HammerSpec {
+        mass_kg: 0.001,
+        law: ContactLaw { stiffness: 1.0e6, exponent: 1.0 },
+        speed_m_s: 1.0,
+        position,
+        hysteresis: None,
+    }
 }
 
 /// Chaigne & Askenfelt's C4 string and hammer at 2.5 m/s, as in P4_V2p5.
@@ -70,7 +82,13 @@ fn c4_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c4_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 2.97e-3, law: ContactLaw { stiffness: 4.5e9, exponent: 2.5 }, speed_m_s: 2.5, position: 0.12 }
+    HammerSpec {
+        mass_kg: 2.97e-3,
+        law: ContactLaw { stiffness: 4.5e9, exponent: 2.5 },
+        speed_m_s: 2.5,
+        position: 0.12,
+        hysteresis: None,
+    }
 }
 
 /// Broadwood C7 treble: three strings taken together, a hammer twice their mass.
@@ -89,7 +107,13 @@ fn c7_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
 }
 
 fn c7_hammer() -> HammerSpec {
-    HammerSpec { mass_kg: 0.006, law: ContactLaw { stiffness: 1.0e12, exponent: 3.0 }, speed_m_s: 1.0, position: 0.09 }
+    HammerSpec {
+        mass_kg: 0.006,
+        law: ContactLaw { stiffness: 1.0e12, exponent: 3.0 },
+        speed_m_s: 1.0,
+        position: 0.09,
+        hysteresis: None,
+    }
 }
 
 /// Strike and record the bridge force for `seconds`.
@@ -372,4 +396,70 @@ fn the_lab_counts_the_second_contact_of_a_mallet_struck_near_the_bridge() {
         assert!((second.start_s - 1.337e-3).abs() < 0.02e-3, "{second:?}");
         assert!((m.rebound_speed_m_s.unwrap() - 0.6796).abs() < 0.01);
     }
+}
+
+/// The work the felt's force does, sum of F dC over the (sub)steps (trapezoids).
+#[derive(Default)]
+struct FeltWork {
+    last: (f64, f64),
+    work_j: f64,
+}
+
+impl ContactObserver for FeltWork {
+    fn step(&mut self, _: f64, compression_m: f64, force_n: f64) {
+        let (c0, f0) = self.last;
+        self.work_j += 0.5 * (f0 + force_n) * (compression_m - c0);
+        self.last = (compression_m, force_n);
+    }
+}
+
+#[test]
+fn a_hysteretic_felt_keeps_what_its_loop_encloses() {
+    // Chaigne & Askenfelt's C4 on a lossless string, on Stulov's felt: what the
+    // hammer loses is in the string, the omitted modes, or the felt's loop.
+    use struck_engine::exciter::hammer::Hysteresis;
+    for hysteresis in [Hysteresis { epsilon: 0.2, tau_s: 1e-5 }, Hysteresis { epsilon: 0.3, tau_s: 1e-4 }] {
+        let hammer = HammerSpec { hysteresis: Some(hysteresis), ..c4_hammer() };
+        let mut s = StruckString::new(c4_string(Damping::UniformQ(f64::INFINITY), 43_200.0), 96_000.0, 16);
+        s.strike(hammer);
+        let mut felt = FeltWork::default();
+        for _ in 0..9600 {
+            s.tick_observed(&mut felt);
+        }
+        assert!(!s.in_contact());
+        let v_out = -s.hammer().unwrap().velocity_m_s;
+        let lost_j = 0.5 * hammer.mass_kg * (hammer.speed_m_s.powi(2) - v_out.powi(2));
+        let elsewhere_j = s.string_energy_j() + s.absorbed_by_omitted_modes_j();
+        let balance = (elsewhere_j + felt.work_j) / lost_j - 1.0;
+        println!(
+            "{hysteresis:?}: loop {:.3} % of the hammer's loss, balance {balance:+.2e}",
+            100.0 * felt.work_j / lost_j
+        );
+        assert!(felt.work_j > 0.002 * lost_j, "{hysteresis:?}: the loop holds {} J", felt.work_j);
+        assert!(balance.abs() < 1e-4, "{hysteresis:?}: {balance:+.5} off the hammer's loss");
+    }
+}
+
+#[test]
+fn a_strike_case_takes_the_felt_hysteresis() {
+    // The lab's C4 case with and without Stulov's felt: the memory slows the
+    // rebound and softens the peak, and the metrics stay finite.
+    let text = r#"{"name": "C4 felt", "sample_rate_hz": 96000, "duration_s": 0.05,
+        "string": {"length_m": 0.62, "tension_n": 670.0, "mass_per_length_kg_m": 0.0063387, "inharmonicity": 3.77e-4,
+                   "q": 1000.0},
+        "exciter": {"kind": "hammer", "mass_kg": 2.97e-3, "stiffness": 4.5e9, "exponent": 2.5,
+                    "speed_m_s": 2.5, "position": 0.12}}"#;
+    let run = |sets: &[String]| strike::run(&strike::parse_case(text, sets).unwrap()).metrics;
+    let elastic = run(&[]);
+    let felt = run(&[r#"exciter.hysteresis={"epsilon": 0.3, "tau_s": 1e-4}"#.into()]);
+    let zero = run(&[r#"exciter.hysteresis={"epsilon": 0, "tau_s": 1e-4}"#.into()]);
+    assert_eq!(zero, elastic);
+    let (v_elastic, v_felt) = (elastic.rebound_speed_m_s.unwrap(), felt.rebound_speed_m_s.unwrap());
+    let (f_elastic, f_felt) = (elastic.peak_contact_force_n.unwrap(), felt.peak_contact_force_n.unwrap());
+    println!("rebound {v_elastic:.4} -> {v_felt:.4} m/s, peak {f_elastic:.2} -> {f_felt:.2} N");
+    assert!(v_felt.is_finite() && v_felt < v_elastic, "{v_felt} vs {v_elastic}");
+    assert!(f_felt.is_finite() && f_felt < f_elastic, "{f_felt} vs {f_elastic}");
+    assert!(felt.contact_count >= 1 && felt.contact_time_s.is_finite());
+    let json = serde_json::to_string(&felt).unwrap();
+    assert!(!json.contains("null") && !json.contains("NaN") && !json.contains("inf"), "{json}");
 }

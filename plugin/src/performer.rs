@@ -116,9 +116,9 @@ impl Performer {
                 push(Event::NoteOn { key, velocity });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
-            NoteEvent::NoteOff { key: Key::Number(key), .. } if key < 128 => {
+            NoteEvent::NoteOff { key: Key::Number(key), velocity, .. } if key < 128 => {
                 self.pressure.note_off(key);
-                push(Event::NoteOff { key });
+                push(Event::NoteOff { key, velocity });
             }
             NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
             NoteEvent::PolyPressure { key: Key::Number(key), pressure, .. } if key < 128 => {
@@ -131,7 +131,7 @@ impl Performer {
             // where it has none), as after a note-off.
             NoteEvent::Choke { key: Key::Number(key), .. } if key < 128 => {
                 self.pressure.note_off(key);
-                push(Event::NoteOff { key })
+                push(Event::NoteOff { key, velocity: 0.5 })
             }
             NoteEvent::Choke { key: Key::Wildcard, .. } => {
                 self.pressure.reset();
@@ -264,7 +264,7 @@ mod tests {
         assert_eq!(translated(cc(0, 1, 0.3)), [Event::ModWheel(0.3)]);
         assert_eq!(translated(cc(0, 2, 0.3)), []);
         assert_eq!(translated(note_on(0, 60, 0.25, 3, 1)), [Event::NoteOn { key: 60, velocity: 0.25 }]);
-        assert_eq!(translated(note_off(0, 60)), [Event::NoteOff { key: 60 }]);
+        assert_eq!(translated(note_off(0, 60)), [Event::NoteOff { key: 60, velocity: 0.0 }]);
         let wildcard_off = NoteEvent::NoteOff {
             timing: 0,
             voice_id: VoiceID::Wildcard,

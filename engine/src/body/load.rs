@@ -70,8 +70,9 @@ impl<'a> BoardLoad<'a> {
         let top = board.plate.inter_rib_hz().unwrap_or(EXPLICIT_TOP_HZ).min(EXPLICIT_TOP_HZ);
         let modes = board.modes(top);
         let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
-        let residual =
-            (0..points).map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp())).collect();
+        let residual = (0..points)
+            .map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp()))
+            .collect();
         Self { board, modes, residual, irregularity: irregularity.clamp(0.0, 1.0) }
     }
 
@@ -254,7 +255,10 @@ mod tests {
             tuning: Tuning::FirstPartialHz(440.0),
             mass: Mass::SolidWire { diameter_m: 1.0e-3, density_kg_m3: 7850.0 },
             stiffness: Stiffness::YoungsModulus { modulus_pa: 2.0e11, bending_diameter_m: 1.0e-3 },
-            damping: Damping::Physical(PhysicalLoss { internal_loss_factor: 3e-4, bridge_admittance_s_kg: admittance_s_kg }),
+            damping: Damping::Physical(PhysicalLoss {
+                internal_loss_factor: 3e-4,
+                bridge_admittance_s_kg: admittance_s_kg,
+            }),
             max_frequency_hz: 10_000.0,
             outer_diameter_m: None,
         }
@@ -350,7 +354,10 @@ mod tests {
                 trade(step, &mut z);
             }
             let t = blocks as f64 * h;
-            exact = [c0 * v0[0] * (mu[0] * t).exp() + c1 * v1[0] * (mu[1] * t).exp(), c0 * v0[1] * (mu[0] * t).exp() + c1 * v1[1] * (mu[1] * t).exp()];
+            exact = [
+                c0 * v0[0] * (mu[0] * t).exp() + c1 * v1[0] * (mu[1] * t).exp(),
+                c0 * v0[1] * (mu[0] * t).exp() + c1 * v1[1] * (mu[1] * t).exp(),
+            ];
             for (a, b) in z.iter().zip(&exact) {
                 assert!((a - b).norm() < 2e-3 * (1.0 + b.norm()), "detune {detune_hz} Hz: {a} against {b}");
             }

@@ -409,7 +409,8 @@ mod tests {
         let list = modes(&p, 2000.0);
         assert!(list.windows(2).all(|w| w[0].frequency_hz <= w[1].frequency_hz));
         assert!(list.iter().all(|m| m.frequency_hz <= 2000.0));
-        let brute = (1..200).flat_map(|m| (1..200).map(move |n| (m, n)))
+        let brute = (1..200)
+            .flat_map(|m| (1..200).map(move |n| (m, n)))
             .filter(|&(m, n)| p.mode_frequency_hz(m, n) <= 2000.0)
             .count();
         assert_eq!(list.len(), brute);

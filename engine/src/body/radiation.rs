@@ -20,8 +20,8 @@ use std::f64::consts::PI;
 use num_complex::Complex64;
 
 use super::boards::SOUND_SPEED_M_S;
-use crate::string::damping::AIR_DENSITY_KG_M3;
 use super::plate::{BodyMode, Plate};
+use crate::string::damping::AIR_DENSITY_KG_M3;
 
 /// A microphone's position: metres from the board's corner along the grain (x)
 /// and across it (y), and its height above the board.
@@ -42,7 +42,8 @@ fn side_integral(m: u32, side_m: f64, beta: f64) -> Complex64 {
     if denominator.abs() < 1e-9 * alpha * alpha {
         denominator = 1e-9 * alpha * alpha;
     }
-    let from_corner = alpha * (Complex64::new(1.0, 0.0) - sign * Complex64::from_polar(1.0, beta * side_m)) / denominator;
+    let from_corner =
+        alpha * (Complex64::new(1.0, 0.0) - sign * Complex64::from_polar(1.0, beta * side_m)) / denominator;
     from_corner * Complex64::from_polar(1.0, -beta * side_m / 2.0)
 }
 
@@ -101,8 +102,10 @@ mod tests {
         let mic = MicPosition { x_m: 0.75, y_m: 0.5, height_m: 2.0 };
         let odd = modes.iter().find(|m| m.m == 1 && m.n == 1).unwrap();
         let even = modes.iter().find(|m| m.m == 2 && m.n == 1).unwrap();
-        let (p_odd, p_even) =
-            (pressure_per_acceleration(&board.plate, odd, mic).abs(), pressure_per_acceleration(&board.plate, even, mic).abs());
+        let (p_odd, p_even) = (
+            pressure_per_acceleration(&board.plate, odd, mic).abs(),
+            pressure_per_acceleration(&board.plate, even, mic).abs(),
+        );
         // The piston's pressure: rho V / (2 pi r) with V = L W 4 / pi^2.
         let piston = 1.2 * board.plate.area_m2() * 4.0 / (PI * PI) / (2.0 * PI * 2.0);
         assert!((p_odd / piston - 1.0).abs() < 0.1, "{p_odd} against {piston}");

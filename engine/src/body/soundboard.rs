@@ -16,8 +16,8 @@
 use std::f64::consts::PI;
 
 use multiversion::multiversion;
-use serde::{Deserialize, Serialize};
 use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
 
 use super::boards::{BodyDesign, MAX_ZONES};
 use super::plate::{BodyMode, shape_at};
@@ -179,10 +179,10 @@ impl Soundboard {
             held_re: vec![[0.0; LANES]; groups],
             held_im: vec![[0.0; LANES]; groups],
             shape: vec![[[0.0; LANES]; MAX_ZONES]; groups],
-            out: [[vec![[0.0; LANES]; groups], vec![[0.0; LANES]; groups]], [
-                vec![[0.0; LANES]; groups],
-                vec![[0.0; LANES]; groups],
-            ]],
+            out: [
+                [vec![[0.0; LANES]; groups], vec![[0.0; LANES]; groups]],
+                [vec![[0.0; LANES]; groups], vec![[0.0; LANES]; groups]],
+            ],
             direct: [[0.0; MAX_ZONES]; 2],
             largest_weight: 0.0,
             resting: true,
@@ -265,7 +265,8 @@ impl Soundboard {
                     continue;
                 }
                 let sigma = -magnitude.ln() / self.step_s;
-                let held = ((-2.0 * sigma * from_s).exp() - (-2.0 * sigma * to_s).exp()) / (2.0 * sigma * (to_s - from_s));
+                let held =
+                    ((-2.0 * sigma * from_s).exp() - (-2.0 * sigma * to_s).exp()) / (2.0 * sigma * (to_s - from_s));
                 for out in &self.out {
                     let w = Complex64::new(out[0][g][l], out[1][g][l]);
                     // A real signal Re(w z e^(lambda t)) has half its envelope's power.
@@ -359,7 +360,13 @@ impl Soundboard {
 }
 
 /// `mode`'s pole, zone drives and microphone weights at sample step `h`.
-fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: [MicPosition; 2], h: f64) -> PlannedMode {
+fn plan(
+    board: &BodyDesign,
+    mode: &BodyMode,
+    zone_points: &[(f64, f64)],
+    mics: [MicPosition; 2],
+    h: f64,
+) -> PlannedMode {
     let omega = 2.0 * PI * mode.frequency_hz;
     let sigma = 0.5 * mode.loss_factor * omega;
     let omega_d = omega * (1.0 - (0.5 * mode.loss_factor).powi(2)).sqrt();
@@ -519,8 +526,7 @@ impl HeardModes {
     /// `board`'s running modes up to `top_hz`, heard at `mics`.
     pub fn new(board: &BodyDesign, top_hz: f64, mics: [MicPosition; 2]) -> Self {
         let modes = board.running_modes(top_hz);
-        let radiation =
-            modes.iter().map(|m| mics.map(|mic| pressure_per_acceleration(&board.plate, m, mic))).collect();
+        let radiation = modes.iter().map(|m| mics.map(|mic| pressure_per_acceleration(&board.plate, m, mic))).collect();
         Self { modes, radiation }
     }
 
@@ -577,7 +583,10 @@ mod tests {
         let point = board.bridge_point(80);
         let mut body = Soundboard::build(&board, fs, &[point], mics, 1.0);
         let heard = HeardModes::new(&board, BODY_TOP_HZ, mics);
-        for f in [20.0, 100.0, 120.0, 140.0, 150.0, 160.0, 180.0, 440.0, 1000.0, 2349.0, 5000.0, 7900.0, 8100.0, 9000.0, 12000.0] {
+        for f in [
+            20.0, 100.0, 120.0, 140.0, 150.0, 160.0, 180.0, 440.0, 1000.0, 2349.0, 5000.0, 7900.0, 8100.0, 9000.0,
+            12000.0,
+        ] {
             body.silence();
             let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
             let (mut sum_l, mut sum_r, mut count) = (0.0, 0.0, 0);
@@ -599,16 +608,21 @@ mod tests {
             let (rms_l, rms_r) = ((sum_l / count as f64).sqrt(), (sum_r / count as f64).sqrt());
             let (want_l, want_r) = (tl.norm() / 2f64.sqrt(), tr.norm() / 2f64.sqrt());
             let off_db = |got: f64, want: f64| 20.0 * (got / want).log10();
-            println!("{f} Hz: left {:.2} dB, right {:.2} dB off the transfer", off_db(rms_l, want_l), off_db(rms_r, want_r));
+            println!(
+                "{f} Hz: left {:.2} dB, right {:.2} dB off the transfer",
+                off_db(rms_l, want_l),
+                off_db(rms_r, want_r)
+            );
             // Above a few hundred hertz the force held over each sample (and
             // the direct share, which is not held) part from the continuous modes
             // by a little: judged against the louder microphone, so that a trough
             // in one (where little comes out at all) does not count as a miss.
             let tolerance = if f <= 500.0 { 0.12 } else { 0.3 };
             let louder = want_l.max(want_r);
-            assert!((rms_l - want_l).abs() < tolerance * louder && (rms_r - want_r).abs() < tolerance * louder, "{f} Hz");
+            assert!(
+                (rms_l - want_l).abs() < tolerance * louder && (rms_r - want_r).abs() < tolerance * louder,
+                "{f} Hz"
+            );
         }
     }
 }
-
-

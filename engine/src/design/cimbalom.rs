@@ -48,6 +48,7 @@ use super::common::{
     with_losses, wound_mass_per_length_kg_m,
 };
 use super::{DamperDesign, ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use crate::exciter::hammer::Hysteresis;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
@@ -79,6 +80,11 @@ const STRIKE_POSITION: Table = Table(&[(52, 0.13), (89, 0.10)]);
 const BEATER_MASS_KG: Table = Table(&[(36, 16.0e-3), (88, 6.0e-3)]);
 /// The covered head's law on a whole course: F = K C^alpha.
 const HEAD: ContactLaw = ContactLaw { stiffness: 1.0e9, exponent: 2.0 };
+/// The head's hysteresis: a thin leather or cotton wrap over wood has far less
+/// compressible wool than a piano hammer, so the low end of the felt's range
+/// (eps 0.06 against the felt's 0.2, the same tau; see
+/// [`super::common::FELT_HYSTERESIS`]).
+const HEAD_HYSTERESIS: Hysteresis = Hysteresis { epsilon: 0.06, tau_s: 1.0e-5 };
 
 /// Steel's internal friction and Re Y = 5e-4 s/kg, a piano's order: a heavier
 /// soundboard under a cast-iron frame, which rings long enough to need its damper
@@ -218,6 +224,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, peak_n),
         pan: pan(midi_key, KEYS),
+        hammer_hysteresis: Some(HEAD_HYSTERESIS),
     }
 }
 

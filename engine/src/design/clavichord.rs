@@ -251,6 +251,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n),
         pan: pan(midi_key, KEYS),
+        hammer_hysteresis: None,
     }
 }
 

@@ -295,6 +295,8 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.course_gain_per_n(&played, peak_n, pan),
         ring_gain_per_n: LEVEL.course_ring_gain_per_n(&played, peak_n),
         pan,
+        // A bare wooden hammer: elastic, as the santoor's mallet.
+        hammer_hysteresis: None,
     })
 }
 
@@ -414,7 +416,7 @@ mod tests {
         let (mut left, mut right) = (vec![0.0f32; n], vec![0.0f32; n]);
         let mut events = vec![TimedEvent::new(0, Event::NoteOn { key, velocity: 0.7 })];
         if let_go {
-            events.push(TimedEvent::new((0.1 * fs) as u32, Event::NoteOff { key }));
+            events.push(TimedEvent::new((0.1 * fs) as u32, Event::NoteOff { key, velocity: 0.5 }));
         }
         synth.process(&events, &mut left, &mut right);
         left.iter().zip(&right).skip((0.1 * fs) as usize).map(|(l, r)| 0.5 * (l + r)).collect()

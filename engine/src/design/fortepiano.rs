@@ -36,7 +36,7 @@
 use std::ops::RangeInclusive;
 use std::sync::OnceLock;
 
-use super::common::{Level, Losses, Table, damper, pan};
+use super::common::{FELT_HYSTERESIS, Level, Losses, Table, damper, pan};
 use super::scale::Scale;
 use super::{KeyDesign, TouchRange, Voicing, key_frequency_hz};
 
@@ -121,6 +121,8 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S)),
         pan: pan(midi_key, KEYS),
+        // Leather's hysteresis is unmeasured too (as its law): taken as the felt's.
+        hammer_hysteresis: Some(FELT_HYSTERESIS),
     }
 }
 

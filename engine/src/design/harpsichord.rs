@@ -147,6 +147,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, peak_n),
         pan: pan(midi_key, KEYS),
+        hammer_hysteresis: None,
     }
 }
 

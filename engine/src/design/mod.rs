@@ -13,6 +13,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+use crate::exciter::hammer::Hysteresis;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::StringSpec;
 
@@ -222,6 +223,9 @@ pub struct Voicing {
     /// with the board's smooth mean, 1 with every resonance (partials on one die
     /// fast). The radiated sound keeps every resonance either way.
     pub board_irregularity: f64,
+    /// The felt's hysteresis (Stulov): a factor on the share of its force its
+    /// memory takes back (0: elastic felt; held so the share stays under 0.9).
+    pub felt_hysteresis: f64,
 }
 
 impl Default for Voicing {
@@ -237,6 +241,7 @@ impl Default for Voicing {
             fretted: false,
             board_size: 1.0,
             board_irregularity: 0.5,
+            felt_hysteresis: 1.0,
         }
     }
 }
@@ -323,6 +328,9 @@ pub struct KeyDesign {
     pub ring_gain_per_n: f64,
     /// Stereo position, -1 (left) to 1 (right).
     pub pan: f64,
+    /// The hysteresis of the felt (or head) of every hammer that plays these
+    /// strings, the key's own and its shared keys' (None: elastic, or no hammer).
+    pub hammer_hysteresis: Option<Hysteresis>,
 }
 
 /// The design of `midi_key` on `kind` with `voicing`, in equal temperament at
@@ -341,7 +349,30 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
         InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz)?,
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };
+    let mut key = KeyDesign { hammer_hysteresis: voiced_hysteresis(key.hammer_hysteresis, voicing), ..key };
+    if let Some(h) = key.hammer_hysteresis {
+        // The designs' felt laws are measured on strikes, which last far
+        // longer than the felt's memory: they are the relaxed felt, (1 - eps)
+        // times its stiffness to an instant stroke.
+        let fast = |e: &mut ExciterDesign| {
+            if let ExciterDesign::Hammer { law, .. } = e {
+                law.stiffness /= 1.0 - h.epsilon;
+            }
+        };
+        fast(&mut key.exciter);
+        key.shared.iter_mut().for_each(|s| fast(&mut s.exciter));
+    }
     Some(key)
+}
+
+/// The most of its force a voiced felt's memory may take back (eps < 1).
+const MOST_HYSTERESIS: f64 = 0.9;
+
+/// A felt's hysteresis with the voicing's `felt_hysteresis` scaling eps (held
+/// under [`MOST_HYSTERESIS`]; 0: elastic).
+fn voiced_hysteresis(felt: Option<Hysteresis>, voicing: &Voicing) -> Option<Hysteresis> {
+    let scale = if voicing.felt_hysteresis.is_finite() { voicing.felt_hysteresis.max(0.0) } else { 1.0 };
+    felt.map(|h| Hysteresis { epsilon: (h.epsilon * scale).min(MOST_HYSTERESIS), ..h }).filter(|h| h.epsilon > 0.0)
 }
 
 /// How many cents sharp the clavichord's `midi_key` sounds while its tangent holds

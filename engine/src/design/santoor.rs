@@ -122,6 +122,9 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, peak_n),
         pan: pan(midi_key, KEYS),
+        // Bare wooden mallets on steel: wood's loss per stroke is far below felt's
+        // (the linear spring above is Woodhouse's elastic mallet), so none.
+        hammer_hysteresis: None,
     }
 }
 

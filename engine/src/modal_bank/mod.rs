@@ -317,6 +317,17 @@ impl ModalBank {
         self.set_state(i, self.state(i) + dz);
     }
 
+    /// Add `dq` to the displacement and `dv` to the velocity of mode `i`,
+    /// computing it from now on if it was culled (the others stay culled).
+    /// Allocates: no.
+    pub fn nudge(&mut self, i: usize, dq: f64, dv: f64) {
+        let lambda = self.lambda[i];
+        let dz = Complex64::new(dq, (lambda.re * dq - dv) / lambda.im) * self.weight[i];
+        self.running = self.running.max((i + 1).next_multiple_of(LANES)).min(self.re.len());
+        self.re[i] += dz.re;
+        self.im[i] += dz.im;
+    }
+
     /// Add to the velocity of mode `i`, keeping its displacement.
     pub fn add_velocity(&mut self, i: usize, dv: f64) {
         let dz = Complex64::new(0.0, -dv / self.lambda[i].im);

@@ -150,8 +150,7 @@ impl StringSpec {
         // is fixed whatever the tension: EI = E pi d^4 / 64 (0 when it is not).
         let material_ei = match self.stiffness {
             Stiffness::YoungsModulus { modulus_pa, bending_diameter_m } => {
-                positive(modulus_pa, "Young's modulus")? * PI * positive(bending_diameter_m, "diameter")?.powi(4)
-                    / 64.0
+                positive(modulus_pa, "Young's modulus")? * PI * positive(bending_diameter_m, "diameter")?.powi(4) / 64.0
             }
             _ => 0.0,
         };

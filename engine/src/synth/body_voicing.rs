@@ -7,12 +7,12 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
+use crate::CONTROL_BLOCK;
 use crate::body::boards::{BodyDesign, MAX_ZONES, ZoneShare};
 use crate::body::load::trade;
 use crate::body::soundboard::{HeardModes, Soundboard};
 use crate::design::{Touch, TouchRange};
 use crate::key::{Key, TRADE_BLOCKS, regulated};
-use crate::CONTROL_BLOCK;
 
 /// How loud a key's partials come through the body, Pa/N: the pressure per
 /// newton where the key bears on the bridge, power-averaged over both
@@ -147,7 +147,8 @@ fn unison_ring(
     let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
     let partials = strings.iter().map(Vec::len).min().unwrap_or(0).min(unison.len());
     // The strongest PROBE_PARTIALS partials by their strings' own ring.
-    let alone = |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
+    let alone =
+        |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
     let mut order: Vec<usize> = (0..partials).filter(|&i| strings.iter().all(|s| s[i].1.im > 0.0)).collect();
     order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
     order.truncate(PROBE_PARTIALS);
@@ -288,14 +289,12 @@ const REGULATION_RISE_DB: f64 = 0.75;
 /// crescendo keeps rising, here by holding each touch's ring under the ring of
 /// every harder touch, by [`REGULATION_RISE_DB`] a step (never louder than the
 /// physics gives; at worst a stretch of the crescendo rising slowly).
-fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body, force: &mut [f64]) -> Vec<(f64, f64)> {
+fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body, force: &mut [f64]) -> Regulation {
     let (lo, hi) = range.bounds();
     let step = (hi / lo).powf(1.0 / (REGULATION_TOUCHES - 1) as f64);
     let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
-    let mut points: Vec<(f64, f64)> = (0..REGULATION_TOUCHES)
-        .map(|i| lo * step.powi(i as i32))
-        .map(|t| (t, ring_at(t)))
-        .collect();
+    let mut points: Vec<(f64, f64)> =
+        (0..REGULATION_TOUCHES).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
     // Where the ring changes fast between two touches (a hard strike's
     // spectrum swinging through a partial), look closer.
     for _ in 0..REGULATION_REFINEMENTS {
@@ -331,7 +330,71 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     if at_ringing > 0.0 {
         table.iter_mut().for_each(|(_, g)| *g /= at_ringing);
     }
-    table
+    Regulation { table, rings: points }
+}
+
+/// A key's regulation ([`regulation`]): its gain by touch, and the ring
+/// power through the body it was weighed with at those touches.
+struct Regulation {
+    table: Vec<(f64, f64)>,
+    rings: Vec<(f64, f64)>,
+}
+
+/// How far a key may ring over the mean of its two neighbours at any touch,
+/// dB, before it is turned down there.
+const EVEN_DB: f64 = 3.0;
+
+/// Even out `keys` (in key order, each with its voicing, every key turned
+/// down at least by `headroom`) touch by touch, as a technician voices a
+/// scale: where a key rings more than [`EVEN_DB`] over the mean of its
+/// neighbours at a touch (a treble hammer whose spectrum leaps at a softer
+/// touch than theirs), it is turned down there to that; then each touch is
+/// held under every harder one again, so a crescendo still never falls.
+pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64) {
+    // Each key's ring by touch as heard: its rings times its regulation and
+    // its gain onto the body, squared.
+    let heard: Vec<Vec<(f64, f64)>> = keys
+        .iter()
+        .map(|(_, key, v)| {
+            let gain = v.level * v.peak_cut.min(headroom);
+            v.rings.iter().map(|&(t, r)| (t, r * (regulated(key.regulation(), t) * gain).powi(2))).collect()
+        })
+        .collect();
+    for i in 0..keys.len() {
+        if heard[i].is_empty() {
+            continue;
+        }
+        let neighbours: Vec<&Vec<(f64, f64)>> = [i.checked_sub(1), Some(i + 1)]
+            .into_iter()
+            .flatten()
+            .filter_map(|j| heard.get(j))
+            .filter(|h| !h.is_empty())
+            .collect();
+        if neighbours.is_empty() {
+            continue;
+        }
+        let key = &mut keys[i].1;
+        let mut table = key.regulation().to_vec();
+        for ((t, g), &(_, own)) in table.iter_mut().zip(&heard[i]) {
+            let mean_db = neighbours.iter().map(|h| 10.0 * regulated(h, *t).max(1e-300).log10()).sum::<f64>()
+                / neighbours.len() as f64;
+            let over_db = 10.0 * own.max(1e-300).log10() - mean_db - EVEN_DB;
+            if over_db > 0.0 {
+                *g *= 10f64.powf(-over_db / 20.0);
+            }
+        }
+        // From the hardest touch down, each held under the next.
+        let rings = &keys[i].2.rings;
+        let mut ceiling = f64::INFINITY;
+        for (j, (_, g)) in table.iter_mut().enumerate().rev() {
+            let ring = rings.get(j).map_or(0.0, |r| r.1) * *g * *g;
+            if ring > ceiling && ring > 0.0 {
+                *g *= (ceiling / ring).sqrt();
+            }
+            ceiling = ceiling.min(rings.get(j).map_or(0.0, |r| r.1) * *g * *g);
+        }
+        keys[i].1.regulate(table);
+    }
 }
 
 /// How an instrument's keys are voiced through its body.
@@ -383,10 +446,12 @@ fn voice_through_body(
     let mut body = Body { heard_modes, shapes: &shapes, share: board.zone_share(midi_key), soundboard };
     let loudest = range.max();
     let mut top_gain = 1.0;
+    let mut rings = Vec::new();
     if regulate && !key.stays_on_strings() {
-        let table = regulation(key, range, ringing, &mut body, &mut force);
+        let Regulation { table, rings: weighed } = regulation(key, range, ringing, &mut body, &mut force);
         top_gain = regulated(&table, loudest.value());
         key.regulate(table);
+        rings = weighed;
     }
     let (heard, bridge) = ring_through_body(key, ringing, body.reborrow(), gain, &mut force);
     let voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
@@ -395,16 +460,19 @@ fn voice_through_body(
     let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
     body.soundboard.silence();
     let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 } }
+    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 }, rings }
 }
 
 /// A key voiced through the body: how much louder than its bridge-force gain
 /// it must bear on the body to ring where the level scale puts it, and what
 /// its loudest strike's peak then allows of that (1: all of it).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Voiced {
     pub level: f64,
     pub peak_cut: f64,
+    /// Its ring power through the body by touch, before its regulation
+    /// (empty: not regulated).
+    pub rings: Vec<(f64, f64)>,
 }
 
 /// The share of keys whose peak sets the instrument's headroom: the rest are
@@ -418,11 +486,10 @@ const HEADROOM_QUANTILE: f64 = 0.85;
 /// than their ring would suggest (a hard strike's knock) do not stand out
 /// below their neighbours. The few whose peak needs more are turned down by
 /// their own (the top octave's knock).
-pub(super) fn headroom(voiced: &[Voiced]) -> f64 {
-    let mut cuts: Vec<f64> = voiced.iter().map(|v| v.peak_cut).collect();
+pub(super) fn headroom(cuts: &[f64]) -> f64 {
+    let mut cuts = cuts.to_vec();
     cuts.sort_by(f64::total_cmp);
     // Sorted from the deepest cut: the quantile's key from the shallow end.
     let index = ((1.0 - HEADROOM_QUANTILE) * cuts.len() as f64).floor() as usize;
     cuts.get(index.min(cuts.len().saturating_sub(1))).copied().unwrap_or(1.0).min(1.0)
 }
-

@@ -5,8 +5,9 @@
 pub enum Event {
     /// A key goes down; `velocity` in (0, 1] (MIDI velocity / 127).
     NoteOn { key: u8, velocity: f32 },
-    /// A key comes up.
-    NoteOff { key: u8 },
+    /// A key comes up; `velocity` in [0, 1] (MIDI release velocity / 127; 0.5
+    /// from a keyboard that does not measure it): how hard its damper lands.
+    NoteOff { key: u8, velocity: f32 },
     /// CC64, 0 (dampers on the strings) to 1 (all dampers lifted); in between, half-pedal.
     Sustain(f32),
     /// CC66, held at or above 0.5: the keys down at that moment keep their dampers lifted.

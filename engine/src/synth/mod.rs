@@ -30,7 +30,7 @@ use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
-use crate::key::{Key, TRADE_BLOCKS};
+use crate::key::{ActionNoise, Key, TRADE_BLOCKS};
 use sympathy::Sympathy;
 use crate::string::StringError;
 use crate::string::Tuning;
@@ -65,6 +65,10 @@ const SCOPE_CHUNK: usize = 8;
 pub const SOFTEST_MALLET: f64 = 1.0e-3;
 /// The most threads an instrument's keys are voiced on when it is built.
 const MAX_VOICING_THREADS: usize = 8;
+
+/// The release velocity of a key released by a note-on at velocity 0 (MIDI's
+/// default, 64).
+const DEFAULT_RELEASE: f64 = 64.0 / 127.0;
 
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
 const DC_BLOCK_HZ: f64 = 5.0;
@@ -134,6 +138,12 @@ pub struct Controls {
     /// How loud the strings' phantom partials are, 0..=4 times the physics
     /// (above 1: the wood's own, which the strings' model leaves out).
     pub phantom: f64,
+    /// How loud the action's sounds are, 0..=4 times the physics: a key
+    /// striking its bed, a damper landing on its strings, the dampers
+    /// lifting off them together under the pedal.
+    pub key_noise: f64,
+    pub damper_noise: f64,
+    pub pedal_noise: f64,
 }
 
 impl Default for Controls {
@@ -149,11 +159,20 @@ impl Default for Controls {
             output: Output::Microphones,
             sympathy: 1.0,
             phantom: 1.0,
+            key_noise: 1.0,
+            damper_noise: 1.0,
+            pedal_noise: 1.0,
         }
     }
 }
 
 impl Controls {
+    /// The action's sounds' levels, each held to 0..=4.
+    pub(crate) fn noise(&self) -> ActionNoise {
+        let level = |v: f64| if v.is_finite() { v.clamp(0.0, 4.0) } else { 1.0 };
+        ActionNoise { key_bed: level(self.key_noise), damper: level(self.damper_noise), pedal: level(self.pedal_noise) }
+    }
+
     /// The touch (exciter speed or pluck height) for a velocity in (0, 1].
     pub fn touch(&self, range: TouchRange, velocity: f64) -> Touch {
         let (min, max) = range.bounds();
@@ -210,7 +229,7 @@ impl Instrument {
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
             let design = tuned(design, &frequencies_hz);
             {
-                match Key::build(design, fs, settings.kind.touch_range(), load.as_ref()) {
+                match Key::build(design, fs, settings.kind, load.as_ref()) {
                     Ok(key) => {
                         for (note, k) in key.note_keys() {
                             route[k as usize & 127] = Some((midi_key, note as u8));
@@ -244,7 +263,9 @@ impl Instrument {
         // the keys dealt out in turn (a treble key costs more than a bass one).
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
         let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
-        for (i, (k, key)) in keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate() {
+        for (i, (k, key)) in
+            keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate()
+        {
             hands[i % cores].push((k, key));
         }
         let voicer = Voicer { board: &board, heard_modes: &heard, range, ringing, regulate: settings.strings_on_body };
@@ -254,17 +275,20 @@ impl Instrument {
                 .map(|hand| {
                     let (voicer, mut body) = (&voicer, soundboard.clone());
                     scope.spawn(move || {
-                        hand.into_iter().map(|(k, key)| {
-                            let v = voicer.voice(key, k, &mut body);
-                            (k, key, v)
-                        })
-                        .collect::<Vec<_>>()
+                        hand.into_iter()
+                            .map(|(k, key)| {
+                                let v = voicer.voice(key, k, &mut body);
+                                (k, key, v)
+                            })
+                            .collect::<Vec<_>>()
                     })
                 })
                 .collect();
             workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
         });
-        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2).collect::<Vec<_>>());
+        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
+        voiced.sort_by_key(|v| v.0);
+        body_voicing::even_out(&mut voiced, headroom);
         for (k, key, v) in &mut voiced {
             key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
         }
@@ -368,6 +392,8 @@ pub struct Synth {
     retired: [Option<Box<Instrument>>; 8],
     controls: Controls,
     sustain: f64,
+    /// The sustain pedal has lifted the dampers (until it comes back up).
+    dampers_lifted: bool,
     sostenuto: bool,
     /// How far una corda shifts the action, 0..=1.
     una_corda: f64,
@@ -400,6 +426,7 @@ impl Synth {
             retired: Default::default(),
             controls: Controls::default(),
             sustain: 0.0,
+            dampers_lifted: false,
             sostenuto: false,
             una_corda: 0.0,
             hardness: 1.0,
@@ -558,10 +585,10 @@ impl Synth {
 
     fn handle(&mut self, event: Event) {
         match event {
-            Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key),
+            Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key, 0.0),
             Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
-            Event::NoteOff { key } => self.note_off(key),
-            Event::Sustain(v) => self.sustain = (v as f64).clamp(0.0, 1.0),
+            Event::NoteOff { key, velocity } => self.note_off(key, velocity),
+            Event::Sustain(v) if v.is_finite() => self.pedal_to(v as f64),
             Event::Sostenuto(v) => {
                 let down = v >= 0.5;
                 if down && !self.sostenuto {
@@ -582,20 +609,22 @@ impl Synth {
                     k.set_pressure(pressure as f64);
                 }
             }
-            Event::ModWheel(_) | Event::Pressure { .. } | Event::UnaCorda(_) => {}
+            Event::ModWheel(_) | Event::Pressure { .. } | Event::UnaCorda(_) | Event::Sustain(_) => {}
             Event::PitchBend(v) => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
             }
             Event::AllNotesOff => {
+                let sustain = self.sustain;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.down()) {
-                    k.release_all();
+                    k.release_all(sustain);
                 }
             }
             Event::Reset => {
                 let fs = self.current.settings.sample_rate_hz;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
-                    k.release_all();
+                    // Silenced, not let go: no damper lands.
+                    k.release_all(1.0);
                     k.fade_out(STEAL_FADE_S, fs);
                 }
                 self.current.soundboard.fade_out(STEAL_FADE_S);
@@ -609,6 +638,23 @@ impl Synth {
         }
     }
 
+    /// The sustain pedal moves to `value` (0..=1). Pressed past half way it
+    /// lifts every damper off its strings at once (not again until it has come
+    /// back under a quarter: a pedal held near half way does not chatter).
+    fn pedal_to(&mut self, value: f64) {
+        self.sustain = value.clamp(0.0, 1.0);
+        if self.sustain >= 0.5 && !self.dampers_lifted {
+            self.dampers_lifted = true;
+            let (sustain, bend, noise) = (self.sustain, self.bend, self.controls.noise());
+            for k in self.current.keys.iter_mut().flatten() {
+                k.set_noise(noise);
+                k.lift_damper(sustain, bend);
+            }
+        } else if self.sustain < 0.25 {
+            self.dampers_lifted = false;
+        }
+    }
+
     fn note_on(&mut self, midi_key: u8, velocity: f64) {
         let Some((key, _)) = self.current.route(midi_key) else { return };
         if !key.is_sounding() {
@@ -617,17 +663,23 @@ impl Synth {
         let touch = self.controls.touch(self.current.touch, velocity);
         // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
         let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
-        let (una_corda, bend, bebung) = (self.una_corda, self.bend, self.controls.bebung);
+        let (una_corda, bend, bebung, noise) = (self.una_corda, self.bend, self.controls.bebung, self.controls.noise());
         let Some((key, note)) = self.current.route(midi_key) else { return };
         key.set_bebung(bebung);
+        key.set_noise(noise);
         key.press(note, touch, una_corda, hardness, bend);
         let home = key.midi_key();
         self.scope.struck(home);
     }
 
-    fn note_off(&mut self, midi_key: u8) {
+    /// `midi_key` comes up with release `velocity` (0 or unknown: MIDI's
+    /// default, 64, as many keyboards send 0 for a release they do not measure).
+    fn note_off(&mut self, midi_key: u8, velocity: f32) {
+        let velocity = if velocity > 0.0 && velocity.is_finite() { (velocity as f64).min(1.0) } else { DEFAULT_RELEASE };
+        let (sustain, noise) = (self.sustain, self.controls.noise());
         if let Some((key, note)) = self.current.route(midi_key) {
-            key.release(note);
+            key.set_noise(noise);
+            key.release(note, velocity, sustain);
         }
     }
 
@@ -650,7 +702,7 @@ impl Synth {
     fn control(&mut self, time: u32) {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
-        let phantom = self.controls.phantom.clamp(0.0, 4.0);
+        let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());
         if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(TRADE_BLOCKS as u64) {
             let current = &mut *self.current;
             current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE);
@@ -659,6 +711,7 @@ impl Synth {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 key.set_bebung(bebung);
                 key.set_phantom(phantom);
+                key.set_noise(noise);
                 if key.control(block_s, sustain, bend, SILENCE) {
                     for k in key.take_sounded() {
                         if self.ended.len() < self.ended.capacity() {

@@ -10,12 +10,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use struck_engine::design::InstrumentKind;
 
+use super::output::Staged;
 use crate::cli::Failure;
 use crate::cli::animate::{self, FilmOptions};
 use crate::demo_page::{self, Entry};
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
-use super::output::Staged;
 use crate::seed_sounds::{self, SOUND_RATE_HZ};
 
 /// Grid side of the hammer charts in a full demo and in a quick one.

@@ -27,9 +27,9 @@ use struck_engine::preset::Preset;
 use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
+use super::output::Staged;
 use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
-use super::output::Staged;
 
 /// Sample rates rendered, Hz.
 pub const SAMPLE_RATES_HZ: std::ops::RangeInclusive<u32> = 22_050..=192_000;
@@ -410,7 +410,7 @@ mod tests {
             (10, Event::NoteOn { key: 60, velocity: 0.8 }),
             (10, Event::NoteOn { key: 64, velocity: 0.5 }),
             (700, Event::PitchBend(0.3)),
-            (1500, Event::NoteOff { key: 60 }),
+            (1500, Event::NoteOff { key: 60, velocity: 0.5 }),
             (1500, Event::NoteOn { key: 67, velocity: 1.0 }),
             (2000, Event::AllNotesOff),
         ];

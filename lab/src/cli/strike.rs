@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use crate::strike::{self, LabRun};
 
-use crate::cli::Failure;
 use super::output::{Staged, csv_field};
+use crate::cli::Failure;
 
 #[derive(clap::Args)]
 pub struct StrikeArgs {

@@ -55,7 +55,8 @@ pub fn body(kind: InstrumentKind, dir: &Path) -> anyhow::Result<Vec<Drawn>> {
     if kind == InstrumentKind::Piano {
         series.push(wogram_points());
     }
-    let mut p = plot(format!("{name}: bridge mobility, {} modes to 10 kHz", all.len()), "frequency (Hz)", "|Y| (s/kg)", series);
+    let mut p =
+        plot(format!("{name}: bridge mobility, {} modes to 10 kHz", all.len()), "frequency (Hz)", "|Y| (s/kg)", series);
     p.x_scale = Scale::Log;
     p.y_scale = Scale::Log;
     p.legend = Corner::LowerRight;
@@ -114,4 +115,3 @@ fn wogram_points() -> Series {
         vec![(100.0, 1e-3), (1000.0, 1e-2), (10_000.0, 0.1)],
     )
 }
-

@@ -126,7 +126,7 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize) -> KeyboardRun {
                 );
             }
             if b == held_blocks {
-                events.extend(keys.iter().map(|&key| TimedEvent::new(0, Event::NoteOff { key })));
+                events.extend(keys.iter().map(|&key| TimedEvent::new(0, Event::NoteOff { key, velocity: 0.5 })));
                 events.push(TimedEvent::new(0, Event::Sustain(0.0)));
             }
             let start = Instant::now();

@@ -8,8 +8,8 @@
 
 use serde_json::{Map, Value};
 
-use struck_engine::exciter::hammer::HammerSpec;
 use struck_engine::exciter::hammer::contact::ContactLaw;
+use struck_engine::exciter::hammer::{HammerSpec, Hysteresis};
 use struck_engine::exciter::pluck::PluckSpec;
 use struck_engine::exciter::tangent::TangentSpec;
 use struck_engine::string::damping::{Damping, PhysicalLoss};
@@ -213,6 +213,7 @@ const STRING_FIELDS: &[&str] = &[
     "max_frequency_hz",
 ];
 const HAMMER_FIELDS: &[&str] = &["kind", "mass_kg", "stiffness", "exponent", "speed_m_s", "position", "hysteresis"];
+const HYSTERESIS_FIELDS: &[&str] = &["epsilon", "tau_s"];
 const TANGENT_FIELDS: &[&str] = &["kind", "speed_m_s", "displacement_m"];
 const PLUCK_FIELDS: &[&str] = &["kind", "displacement_m", "position"];
 
@@ -377,9 +378,6 @@ fn exciter_from_value(value: Option<&Value>) -> Result<ExciterSpec, CaseError> {
     match kind {
         "hammer" => {
             let e = Fields::new("exciter", value, HAMMER_FIELDS)?;
-            if e.has("hysteresis") {
-                return refuse("exciter.hysteresis", "not supported yet (the felt is elastic: F = K C^alpha)");
-            }
             let exponent = e.required("exponent")?;
             e.check(
                 "exponent",
@@ -392,6 +390,7 @@ fn exciter_from_value(value: Option<&Value>) -> Result<ExciterSpec, CaseError> {
                 law: ContactLaw { stiffness: e.positive("stiffness")?, exponent },
                 speed_m_s: e.positive("speed_m_s")?,
                 position: e.fraction("position")?,
+                hysteresis: hysteresis_from(&e)?,
             }))
         }
         "tangent" => {
@@ -410,6 +409,23 @@ fn exciter_from_value(value: Option<&Value>) -> Result<ExciterSpec, CaseError> {
         }
         other => refuse("exciter.kind", format!("unknown kind \"{other}\" (hammer, tangent or pluck)")),
     }
+}
+
+/// A hammer's optional `hysteresis`, `{"epsilon": e, "tau_s": t}`: the felt
+/// F = K [C^alpha - (e / t) int_0^now C(s)^alpha exp(-(now - s) / t) ds]
+/// (Stulov 1995), 0 <= e < 1, t > 0 s. Absent: elastic.
+fn hysteresis_from(hammer: &Fields) -> Result<Option<Hysteresis>, CaseError> {
+    let Some(value) = hammer.map.get("hysteresis") else { return Ok(None) };
+    let h = Fields::new(&hammer.name("hysteresis"), Some(value), HYSTERESIS_FIELDS)?;
+    let epsilon = h.required("epsilon")?;
+    h.check(
+        "epsilon",
+        epsilon,
+        (0.0..1.0).contains(&epsilon),
+        "must lie in [0, 1) (the share of the force the felt's memory takes back)",
+    )?;
+    let tau_s = h.positive("tau_s")?;
+    Ok(Some(Hysteresis { epsilon, tau_s }))
 }
 
 #[cfg(test)]
@@ -448,6 +464,19 @@ mod tests {
     }
 
     #[test]
+    fn a_hammer_may_have_a_hysteretic_felt() {
+        let case = parse_case(S1, &[]).unwrap();
+        assert!(matches!(case.exciter, ExciterSpec::Hammer(h) if h.hysteresis.is_none()));
+        let set = r#"exciter.hysteresis={"epsilon": 0.2, "tau_s": 2e-5}"#.to_string();
+        let case = parse_case(S1, &[set]).unwrap();
+        let expected = Some(Hysteresis { epsilon: 0.2, tau_s: 2e-5 });
+        assert!(matches!(case.exciter, ExciterSpec::Hammer(h) if h.hysteresis == expected));
+        // Zero is allowed: the elastic felt.
+        let set = r#"exciter.hysteresis={"epsilon": 0, "tau_s": 2e-5}"#.to_string();
+        assert!(parse_case(S1, &[set]).is_ok());
+    }
+
+    #[test]
     fn each_rule_names_its_field() {
         let cases: &[(&[&str], &str)] = &[
             (&["exciter.position=1.2"], "exciter.position"),
@@ -463,6 +492,15 @@ mod tests {
             (&["string.q=[1000, \"x\"]"], "string.q[1]"),
             (&["exciter.kind=bow"], "exciter.kind"),
             (&["exciter.hysteresis=0.9"], "exciter.hysteresis"),
+            (&["exciter.hysteresis=null"], "exciter.hysteresis"),
+            (&[r#"exciter.hysteresis={"epsilon": 1.0, "tau_s": 1e-5}"#], "exciter.hysteresis.epsilon"),
+            (&[r#"exciter.hysteresis={"epsilon": -0.1, "tau_s": 1e-5}"#], "exciter.hysteresis.epsilon"),
+            (&[r#"exciter.hysteresis={"epsilon": "x", "tau_s": 1e-5}"#], "exciter.hysteresis.epsilon"),
+            (&[r#"exciter.hysteresis={"tau_s": 1e-5}"#], "exciter.hysteresis.epsilon"),
+            (&[r#"exciter.hysteresis={"epsilon": 0.2, "tau_s": 0}"#], "exciter.hysteresis.tau_s"),
+            (&[r#"exciter.hysteresis={"epsilon": 0.2, "tau_s": -1e-5}"#], "exciter.hysteresis.tau_s"),
+            (&[r#"exciter.hysteresis={"epsilon": 0.2}"#], "exciter.hysteresis.tau_s"),
+            (&[r#"exciter.hysteresis={"epsilon": 0.2, "tau": 1e-5}"#], "exciter.hysteresis.tau"),
             (&["sample_rate_hz=10"], "sample_rate_hz"),
             (&["duration_s=0"], "duration_s"),
             (&["string.max_frequency_hz=60000"], "string.max_frequency_hz"),

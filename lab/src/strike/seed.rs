@@ -83,6 +83,7 @@ pub fn santoor_mallet(mass_kg: f64, position: f64, sample_rate_hz: f64, duration
         law: ContactLaw { stiffness: SANTOOR_MALLET_STIFFNESS_N_M, exponent: 1.0 },
         speed_m_s: SANTOOR_MALLET_SPEED_M_S,
         position,
+        hysteresis: None,
     });
     let name = format!("santoor, {:.0} g mallet at {}", mass_kg * 1e3, fraction_name(position));
     case(name, sample_rate_hz, duration_s, santoor_string(), exciter)
@@ -151,7 +152,9 @@ pub fn piano_c_string(octave: u8, inharmonic: bool) -> StringSpec {
 /// the C string of `octave` has; [`piano_c_case`] moves it to the struck string's.
 pub fn piano_c_hammer(octave: u8, speed_m_s: f64) -> HammerSpec {
     match piano_key(piano_c_key(octave)).exciter {
-        ExciterDesign::Hammer { mass_kg, law, position } => HammerSpec { mass_kg, law, speed_m_s, position },
+        ExciterDesign::Hammer { mass_kg, law, position } => {
+            HammerSpec { mass_kg, law, speed_m_s, position, hysteresis: None }
+        }
         _ => unreachable!("a piano key has a hammer"),
     }
 }
@@ -192,7 +195,7 @@ pub fn key_case(
     let string = course_string(&key, Damping::PerModeQ(q), MAX_FREQUENCY_HZ)?;
     let exciter = match key.exciter {
         ExciterDesign::Hammer { mass_kg, law, position } => {
-            ExciterSpec::Hammer(HammerSpec { mass_kg, law, speed_m_s, position })
+            ExciterSpec::Hammer(HammerSpec { mass_kg, law, speed_m_s, position, hysteresis: key.hammer_hysteresis })
         }
         ExciterDesign::Tangent { displacement_m, .. } => {
             ExciterSpec::Tangent(TangentSpec { speed_m_s, displacement_m })

@@ -635,6 +635,7 @@ mod tests {
             law: ContactLaw { stiffness: 4.5e9, exponent: 2.5 },
             speed_m_s: 2.5,
             position: 0.125,
+            hysteresis: None,
         };
         piano_case(0.639, 261.6, 0.0117 / 0.639, 3.6e-4, hammer)
     }
@@ -647,6 +648,7 @@ mod tests {
             law: ContactLaw { stiffness: 4.0e8, exponent: 2.3 },
             speed_m_s: 2.5,
             position: 0.135,
+            hysteresis: None,
         };
         piano_case(0.925, 65.4, 0.073 / 0.925, 2.2e-4, hammer)
     }

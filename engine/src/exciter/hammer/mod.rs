@@ -14,10 +14,12 @@
 //! impulse it receives is exactly the sum of F h over the steps.
 
 pub mod contact;
+pub mod hysteresis;
 mod rig;
 pub mod substeps;
 
 pub use contact::ContactLaw;
+pub use hysteresis::Hysteresis;
 pub use rig::{HammerRig, Substep};
 
 /// A hammer or mallet and how it is thrown.
@@ -30,12 +32,15 @@ pub struct HammerSpec {
     pub speed_m_s: f64,
     /// Where it strikes, as a fraction of the length from the bridge, 0 < p < 1.
     pub position: f64,
+    /// The felt's hysteresis (Stulov); None: elastic.
+    pub hysteresis: Option<Hysteresis>,
 }
 
 impl HammerSpec {
     /// One string's share of a hammer of `mass_kg` on felt `law` striking
     /// `strings` strings of a course at once: each string meets mass / n on
-    /// stiffness K / n, so together they take the whole hammer's force.
+    /// stiffness K / n, so together they take the whole hammer's force. Its felt
+    /// is elastic ([`Self::with_hysteresis`] gives it a memory).
     pub fn one_of(strings: usize, mass_kg: f64, law: ContactLaw, speed_m_s: f64, position: f64) -> Self {
         let n = strings.max(1) as f64;
         Self {
@@ -43,7 +48,14 @@ impl HammerSpec {
             law: ContactLaw { stiffness: law.stiffness / n, exponent: law.exponent },
             speed_m_s,
             position,
+            hysteresis: None,
         }
+    }
+
+    /// The same hammer on a felt with `hysteresis` (eps and tau are the same for
+    /// every string's share: the memory scales with K / n like the force).
+    pub fn with_hysteresis(self, hysteresis: Option<Hysteresis>) -> Self {
+        Self { hysteresis, ..self }
     }
 }
 
@@ -102,6 +114,7 @@ mod tests {
             law: ContactLaw { stiffness: 1e9, exponent: 2.5 },
             speed_m_s: 2.0,
             position: 0.12,
+            hysteresis: None,
         };
         let mut h = Hammer::thrown(spec, 1e-4);
         let (dt, m) = (1e-3, 0.003);

@@ -22,6 +22,7 @@
 //! kept modes, the felt, the residual spring, or taken up by the omitted modes.
 
 use super::contact::{Binomial, ContactStep, Felt, Guess};
+use super::hysteresis::Memory;
 use super::{Hammer, HammerSpec};
 use crate::exciter::{ContactObserver, Tick, drive_table};
 use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
@@ -69,6 +70,8 @@ struct Strike {
     earlier_compression_m: [f64; 2],
     /// The felt law's [`super::ContactLaw::binomial`].
     binomial: Binomial,
+    /// The felt's memory, if it has hysteresis (None: elastic).
+    memory: Option<Memory>,
     /// Energy taken up by the omitted modes' dashpot so far, J.
     absorbed_j: f64,
     /// The sub-step size of this strike (an index into the string's [`Substep`]s).
@@ -113,8 +116,9 @@ impl HammerRig {
     }
 
     /// Throw a hammer at the string as it is now, sub-stepped at the string's
-    /// sub-step size `fine` (an index). Allocates: no.
-    pub fn throw(&mut self, bank: &ModalBank, spec: HammerSpec, fine: usize) {
+    /// sub-step size `fine` (an index), which is `substep_s` long within samples
+    /// of `sample_s` (the felt's memory, if any, is weighted for both). Allocates: no.
+    pub fn throw(&mut self, bank: &ModalBank, spec: HammerSpec, fine: usize, substep_s: f64, sample_s: f64) {
         debug_assert_eq!(spec.position, self.tables.position);
         let touching_at_m = bank.observe(&self.tables.audio);
         self.strike = Some(Strike {
@@ -126,6 +130,7 @@ impl HammerRig {
             earlier_force_n: [0.0; 2],
             earlier_compression_m: [0.0; 2],
             binomial: spec.law.binomial(),
+            memory: Memory::new(spec.hysteresis, substep_s, sample_s),
             absorbed_j: 0.0,
             fine,
             substepping: true,
@@ -187,8 +192,9 @@ impl HammerRig {
         let d = self.strike.as_ref()?;
         let t = &self.tables;
         let (drive, force) = if d.substepping { (&t.fine[d.fine].drive, d.force_n) } else { (&t.audio, 0.0) };
+        let elastic_n = d.hammer.spec.law.force_n(d.compression_m);
         Some(Tick {
-            contact_force_n: d.hammer.spec.law.force_n(d.compression_m),
+            contact_force_n: d.memory.as_ref().map_or(elastic_n, |m| m.force_at(elastic_n)),
             bridge_force_n: bank.bridge_force_n()
                 + drive.bridge_per_input * force
                 + t.residual.bridge_force_n(d.residual_m),
@@ -224,6 +230,9 @@ impl HammerRig {
                 d.residual_m = residual_m;
                 d.compression_m = compression_m;
                 d.felt = Felt { compression_m, force_n: 0.0, energy_j: 0.0 };
+                if let Some(memory) = d.memory.as_mut() {
+                    memory.relax_free();
+                }
                 d.time_s += h;
                 observer.step(d.time_s, compression_m, 0.0);
                 return Some(Tick {
@@ -258,8 +267,11 @@ impl HammerRig {
                 compression_m: 3.0 * (d.compression_m - c1) + c2,
                 binomial: &d.binomial,
             };
-            let (ContactStep { compression_m, step_force_n: force, .. }, felt) =
-                d.hammer.spec.law.step(d.felt, c_hat, compliance, Some(guess));
+            let law = &d.hammer.spec.law;
+            let (ContactStep { compression_m, step_force_n: force, .. }, felt) = match d.memory.as_mut() {
+                None => law.step(d.felt, c_hat, compliance, Some(guess)),
+                Some(memory) => memory.step(law, d.felt, c_hat, compliance, Some(guess)),
+            };
             d.earlier_force_n = [d.force_n, f1];
             d.earlier_compression_m = [d.compression_m, c1];
             d.felt = felt;
@@ -273,7 +285,7 @@ impl HammerRig {
             d.force_n = force;
             d.time_s += h;
             any_force |= force > 0.0;
-            let felt_force_n = felt.force_n;
+            let felt_force_n = d.memory.as_ref().map_or(felt.force_n, |m| m.force_at(felt.force_n));
             observer.step(d.time_s, compression_m, felt_force_n);
             tick = Tick {
                 contact_force_n: felt_force_n,

@@ -1,0 +1,137 @@
+//! The action's sounds, computed from the parts that make them: the key
+//! striking its bed, a damper's felt landing on its strings when the key comes
+//! up, and the dampers leaving the strings together when the sustain pedal
+//! goes down.
+//!
+//! - **Key bed.** A keyboard instrument's key stops on the felt of its bed as
+//!   the hammer (or jack) leaves it: the key's momentum m v goes into the key
+//!   frame in a raised-cosine pulse of [`KEY_BED_PULSE_S`], and a share of it
+//!   ([`KEY_BED_TO_BOARD`]) reaches the board at the key's bridge point.
+//!   A hand-held mallet has no key, and a clavichord's key stops on its
+//!   tangent, in the string.
+//! - **Damper landing.** The damper's head (felt and wire, [`DAMPER_MASS_KG`])
+//!   falls onto the strings at a speed that follows the release velocity: its
+//!   momentum goes into the strings at its place over the contact of its soft
+//!   felt ([`DAMPER_CONTACT_S`]), which passes only the low partials: a thud,
+//!   which the damper then stops.
+//! - **Dampers lifting.** Each damper's weight ([`DAMPER_WEIGHT_N`]) holds its
+//!   strings bent under it; lifted, they spring back from that bend and ring,
+//!   all together when the pedal lifts every damper.
+//!
+//! The masses, speeds and shares are our assumptions, of the order of a grand
+//! piano's parts (no measurement was at hand); each sound has a level control.
+
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+use std::f64::consts::PI;
+
+use crate::string::StringModes;
+
+/// The key's effective mass at its front, kg (a grand key with its lead weights).
+pub const KEY_MASS_KG: f64 = 0.05;
+/// The hammer moves this many times as fast as the key's front (the action's ratio).
+pub const ACTION_RATIO: f64 = 5.0;
+/// How long the key bed's felt takes to stop the key, s.
+pub const KEY_BED_PULSE_S: f64 = 0.002;
+/// The share of the key bed's force that reaches the board: the key frame
+/// stands on the case, which carries the board at its rim.
+pub const KEY_BED_TO_BOARD: f64 = 0.05;
+
+/// The damper head's mass (felt, wood and wire), kg.
+pub const DAMPER_MASS_KG: f64 = 0.015;
+/// The damper's landing speed at the fastest release, m/s (it falls with the key).
+pub const DAMPER_LANDING_M_S: f64 = 0.3;
+/// How long a damper's soft felt takes to settle on the strings, s.
+pub const DAMPER_CONTACT_S: f64 = 0.004;
+/// The force a damper's weight (and spring) presses its strings with, N.
+pub const DAMPER_WEIGHT_N: f64 = 0.2;
+/// How long a damper's felt takes to let its strings go as the pedal lifts
+/// it, s: they spring back over that time, which passes only low partials.
+pub const DAMPER_LIFT_S: f64 = 0.01;
+
+/// The spectrum of a raised-cosine (Hann) pulse of length `t_s` and unit area
+/// at `f_hz`: 1 at 0 Hz, 0 at 2 / T and above it falling as f^-3.
+pub fn pulse_spectrum(f_hz: f64, t_s: f64) -> f64 {
+    let x = f_hz * t_s;
+    if x < 1e-9 {
+        return 1.0;
+    }
+    if (x - 1.0).abs() < 1e-6 {
+        return 0.5;
+    }
+    ((PI * x).sin() / (PI * x * (1.0 - x * x))).abs()
+}
+
+/// The key bed's force at sample `n` after the key bottoms, for a hammer
+/// speed `speed_m_s` at `sample_rate_hz`, N (on the board: the share that
+/// reaches it); 0 once the pulse is over.
+pub fn key_bed_force_n(n: usize, speed_m_s: f64, sample_rate_hz: f64) -> f64 {
+    let t = n as f64 / sample_rate_hz;
+    if !(t < KEY_BED_PULSE_S) {
+        return 0.0;
+    }
+    let momentum = KEY_MASS_KG * speed_m_s / ACTION_RATIO;
+    // A raised cosine of area m v: peak 2 m v / T.
+    let peak = 2.0 * momentum / KEY_BED_PULSE_S;
+    KEY_BED_TO_BOARD * peak * 0.5 * (1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos())
+}
+
+/// The velocity kick each of `string`'s modes takes from an impulse of
+/// `impulse_n_s` at `position` (fraction of its length from the bridge)
+/// spread over a soft contact of `contact_s`: mode n's velocity moves by
+/// J sin(k_n x) / m_n times the pulse's spectrum at f_n, m/s, for each mode
+/// in turn (`kick(i, dv)`).
+pub fn kick_modes(string: &StringModes, position: f64, impulse_n_s: f64, contact_s: f64, mut kick: impl FnMut(usize, f64)) {
+    let modal_mass = 0.5 * string.mass_per_length_kg_m * string.length_m;
+    for (i, mode) in string.modes.iter().enumerate() {
+        let shape = (mode.wavenumber_rad_m * position * string.length_m).sin();
+        let pass = pulse_spectrum(mode.frequency_hz(), contact_s);
+        if pass < 1e-4 {
+            continue;
+        }
+        kick(i, impulse_n_s * shape * pass / modal_mass);
+    }
+}
+
+/// How far each of `string`'s modes is bent by a damper's weight at
+/// `position` (a triangle of peak W / k_x, k_x = T / (x (1 - x) L) the
+/// string's stiffness there), m, let go over [`DAMPER_LIFT_S`] (the share of
+/// the bend each mode keeps is the spectrum of that release at its
+/// frequency), for each mode in turn (`bend(i, dq)`); only partials under
+/// `top_hz`.
+pub fn damper_bend(string: &StringModes, position: f64, top_hz: f64, mut bend: impl FnMut(usize, f64)) {
+    let x = position.clamp(0.01, 0.99);
+    let length = string.length_m;
+    let stiffness = string.tension_n / (x * (1.0 - x) * length);
+    let peak = DAMPER_WEIGHT_N / stiffness;
+    for (i, mode) in string.modes.iter().enumerate() {
+        if mode.frequency_hz() > top_hz {
+            break;
+        }
+        // A triangle of peak d at x: q_n = 2 d sin(n pi x) / (n pi)^2 / (x (1 - x)).
+        let n_pi = mode.number as f64 * PI;
+        let release = pulse_spectrum(mode.frequency_hz(), DAMPER_LIFT_S);
+        bend(i, 2.0 * peak * release * (n_pi * x).sin() / (n_pi * n_pi * x * (1.0 - x)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pulse_passes_low_frequencies_and_stops_at_twice_its_rate() {
+        assert!((pulse_spectrum(0.0, 0.004) - 1.0).abs() < 1e-12);
+        assert!(pulse_spectrum(500.0, 0.004) < 1e-6);
+        assert!(pulse_spectrum(100.0, 0.004) > 0.8);
+    }
+
+    #[test]
+    fn the_key_bed_pulse_carries_the_keys_momentum_into_the_board() {
+        let fs = 48_000.0;
+        let speed = 3.0;
+        let area: f64 = (0..200).map(|n| key_bed_force_n(n, speed, fs)).sum::<f64>() / fs;
+        let expected = KEY_BED_TO_BOARD * KEY_MASS_KG * speed / ACTION_RATIO;
+        assert!((area / expected - 1.0).abs() < 1e-3, "{area} against {expected}");
+    }
+}

@@ -23,7 +23,7 @@ use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
-use crate::modal_bank::{LANES, lane_sum};
+use crate::modal_bank::{LANES, add_lane_sums};
 use crate::phantom::{Phantom, PhantomTable};
 use crate::string::{StringError, StringModes};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
@@ -74,26 +74,35 @@ struct Note {
 }
 
 /// A unison's strings trade through the body every this many control blocks
-/// (10.7 ms at 48 kHz: the coupling moves them by under a tenth of their
-/// motion in that time, and a cent's mistuning turns them apart by under a
-/// tenth of a radian even at C8).
-pub(crate) const TRADE_BLOCKS: usize = 8;
+/// (21.3 ms at 48 kHz: the trade is exact for the coupling over the
+/// interval; the strings' mistuning turns them apart by a few hundredths of a
+/// radian in that time, a cent at C4 by 0.03).
+pub(crate) const TRADE_BLOCKS: usize = 16;
+
+/// The strings of different keys trade through the body every this many
+/// control blocks (10.7 ms at 48 kHz). Each pair's forced answer over the
+/// interval is exact for a freely turning partner, but a partial trades with
+/// a dozen partners at once, and the explicit step's error grows with the
+/// interval: a held C4's difference with the pedal down is -6.9 dB at 8
+/// blocks, -7.2 at 4 and -7.3 at 2 (-5.7 at 16).
+pub(crate) const SYMPATHY_BLOCKS: usize = 8;
 
 /// A key the other strings move stays sounding for this many control blocks
-/// after they last did (they trade every [`TRADE_BLOCKS`]).
-const DRIVEN_BLOCKS: usize = TRADE_BLOCKS + 1;
+/// after they last did (they trade every [`SYMPATHY_BLOCKS`]).
+const DRIVEN_BLOCKS: usize = SYMPATHY_BLOCKS + 1;
 
 /// Keys above this make no phantom partials (Conklin's and Bank's are the
-/// bass's and tenor's; above C5 the strings' products are masked).
-const LAST_PHANTOM_KEY: u8 = 72;
+/// wound strings' and the lowest plain ones'; above C4 the strings'
+/// products are masked).
+const LAST_PHANTOM_KEY: u8 = 60;
+
+/// The phantom products are set again from the strings at least this often,
+/// control blocks (to drop those that have faded under the floor).
+const PHANTOM_REFRESH_BLOCKS: usize = 16;
 
 /// The dampers lifting set ringing only partials under this, Hz (the bend
 /// their weight leaves is a broad one).
 const LIFT_TOP_HZ: f64 = 2_000.0;
-
-/// The dampers leave their strings within this many control blocks of the
-/// pedal passing half way (10.7 ms at 48 kHz).
-const LIFT_SPREAD_BLOCKS: usize = 8;
 
 /// Partials above this are not offered to the other strings through the
 /// body, Hz (the body's modes thin out above it, and the strings' partials
@@ -180,7 +189,13 @@ pub(crate) struct Key {
     /// is over the cull floor this block, and at what level.
     phantom: Option<Phantom>,
     phantom_on: bool,
+    /// The products must be set again from the strings (their motion changed
+    /// other than freely), and blocks since they were.
+    phantom_stale: bool,
+    phantom_age: usize,
     phantom_level: f64,
+    /// The level the products in play were set at.
+    phantom_set: f64,
     /// The action's sounds: whether the key stops on a bed (a keyboard's
     /// hammer key), the bed's pulse in play (samples since the key bottomed,
     /// hammer speed), and their levels (key bed, damper landing, dampers
@@ -190,8 +205,6 @@ pub(crate) struct Key {
     on_body: bool,
     bed_pulse: Option<(usize, f64)>,
     noise: ActionNoise,
-    /// Control blocks until the pedal's lift lets its strings go.
-    lift_in: Option<usize>,
     /// Its partials as the other strings on the body meet them (empty: strings
     /// on the seed's rigid bridge, or a tangent's, which the listing damps).
     ports: Vec<Port>,
@@ -241,6 +254,10 @@ pub(crate) struct Key {
     level: f64,
     /// The loudest mode of its strings at the last control tick, N (0 while one is played).
     loudest_n: f64,
+    /// Whether the last control tick culled its strings, and what that found
+    /// (their bound and loudest mode, N).
+    culled_last: bool,
+    last_cull: (f64, f64),
 }
 
 impl Key {
@@ -353,12 +370,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             driven: 0,
             phantom,
             phantom_on: false,
+            phantom_stale: true,
+            phantom_age: 0,
             phantom_level: 1.0,
+            phantom_set: 1.0,
             key_bed,
             on_body,
             bed_pulse: None,
             noise: ActionNoise::default(),
-            lift_in: None,
             ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
             bridge_force_n: vec![0.0; design.strings.len()],
@@ -388,6 +407,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             fade_step: 0.0,
             level: 0.0,
             loudest_n: 0.0,
+            culled_last: false,
+            last_cull: (0.0, 0.0),
         })
     }
 
@@ -470,6 +491,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         &self.ports
     }
 
+    /// Whether its strings would ring if moved, silent as it is: its damper
+    /// off with the sustain pedal at `sustain` (or none at all).
+    pub fn rings_free(&self, sustain: f64) -> bool {
+        self.damper.target(self.down() || self.sostenuto, sustain) < 1.0
+    }
+
     /// The summed phasor of partial `partial` over `strings` (bit i: string i), N.
     #[inline]
     pub fn partial_sum(&self, strings: u8, partial: usize) -> Complex64 {
@@ -485,19 +512,22 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// The bridge's motion moves partial `partial` of each of `strings` by
     /// `delta` (N): a silent key whose damper would lie on its strings with
     /// the pedal at `sustain` takes nothing, nor one that would be silent at
-    /// once (a drive under the cull floor for `silence`, full scale); one
-    /// that takes it starts to sound, its damper where the pedal has it and
+    /// once (a drive under `silence` of full scale); one that takes it
+    /// starts to sound, its damper where the pedal has it and
     /// its pitch bent by `bend`, and stays sounding while it is driven.
     /// Allocates: no.
     pub fn drive_partial(&mut self, strings: u8, partial: usize, delta: Complex64, sustain: f64, bend: f64, silence: f64) {
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
         if !self.active {
-            if self.damper.target(false, sustain) >= 1.0 || delta.re.abs() + delta.im.abs() < floor_n {
+            if self.damper.target(false, sustain) >= 1.0 || (delta.re.abs() + delta.im.abs()) * self.gain_per_n < silence {
                 return;
             }
             self.wake(sustain, bend);
         }
+        // (The phantom products follow at their next refresh: a trade moves
+        // a partial by a little.)
         self.driven = DRIVEN_BLOCKS;
+        self.culled_last = false;
         for (i, s) in self.strings.iter_mut().enumerate() {
             if strings & (1 << i) == 0 || partial >= s.bank().len() {
                 continue;
@@ -513,6 +543,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// the others): the damper where the pedal has it, the poles set for it.
     fn wake(&mut self, sustain: f64, bend: f64) {
         self.active = true;
+        self.culled_last = false;
         self.fade = 1.0;
         self.fade_step = 0.0;
         self.loudest_n = 0.0;
@@ -732,6 +763,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         if self.noise.damper <= 0.0 || !self.active || !self.on_body {
             return;
         }
+        self.phantom_stale = true;
+        self.culled_last = false;
         let impulse = action::DAMPER_MASS_KG * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
         let share = -impulse / self.strings.len().max(1) as f64;
         for s in &mut self.strings {
@@ -752,14 +785,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         if !self.active {
             self.wake(sustain, bend);
         }
-        // The dampers leave their strings over a spread of the pedal's travel
-        // (the tray is not regulated to the sample), each at its own moment.
-        self.lift_in = Some(self.midi_key as usize * 5 % LIFT_SPREAD_BLOCKS);
+        self.let_strings_go();
     }
 
     /// The damper, lifted, lets its strings go: they spring back from the bend
     /// its weight held them in.
     fn let_strings_go(&mut self) {
+        self.culled_last = false;
+        self.phantom_stale = true;
         let Some(position) = self.notes.first().and_then(|n| n.damper_position()) else { return };
         let level = self.noise.pedal;
         for s in &mut self.strings {
@@ -801,14 +834,6 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         if self.damper.moved() || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
             self.set_poles(pitch);
         }
-        match self.lift_in {
-            Some(0) => {
-                self.lift_in = None;
-                self.let_strings_go();
-            }
-            Some(n) => self.lift_in = Some(n - 1),
-            None => {}
-        }
         let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
         self.blocks_since_trade += 1;
         if self.blocks_since_trade >= TRADE_BLOCKS {
@@ -816,19 +841,39 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             self.trade_through_bridge(floor_n);
         }
         let mut settled = true;
-        let mut bound = 0.0;
-        let mut loudest_n = 0.0f64;
         for s in &mut self.strings {
             if s.hammer_gone(HAMMER_GONE_GAP_M, HAMMER_GONE_AFTER_S) {
                 s.release_exciter();
             }
             settled &= s.is_settled();
-            let (string_bound, string_loudest) = s.cull(floor_n);
-            bound += string_bound;
-            loudest_n = loudest_n.max(string_loudest);
         }
-        if let Some(p) = &mut self.phantom {
-            self.phantom_on = p.start_block(&self.strings, self.phantom_level, floor_n);
+        // Free strings only fade: every other block the last culling's bound
+        // still bounds them, and the scan is skipped.
+        self.culled_last = !(settled && self.culled_last);
+        let (mut bound, mut loudest_n) = self.last_cull;
+        if self.culled_last {
+            (bound, loudest_n) = (0.0, 0.0f64);
+            for s in &mut self.strings {
+                let (string_bound, string_loudest) = s.cull(floor_n);
+                bound += string_bound;
+                loudest_n = loudest_n.max(string_loudest);
+            }
+            self.last_cull = (bound, loudest_n);
+        }
+        // The products turn freely with their strings: they are set again only
+        // when the strings' motion changed otherwise (a strike, a trade, the
+        // damper, a bend), or every [`PHANTOM_REFRESH_BLOCKS`] to drop the faded.
+        // While a string is played its loudest is unknown (infinite): they wait
+        // for the strike to end.
+        self.phantom_age += 1;
+        if let Some(p) = &mut self.phantom
+            && (self.phantom_stale || self.phantom_age >= PHANTOM_REFRESH_BLOCKS || self.phantom_level != self.phantom_set)
+        {
+            let floor = floor_n.max(crate::phantom::BELOW_LOUDEST * loudest_n);
+            self.phantom_on = p.start_block(&self.strings, self.phantom_level, floor);
+            self.phantom_stale = !floor.is_finite();
+            self.phantom_age = 0;
+            self.phantom_set = self.phantom_level;
         }
         // A string still being played reports an infinite loudest: no relative culling next time.
         self.loudest_n = if loudest_n.is_finite() { loudest_n } else { 0.0 };
@@ -840,7 +885,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         // A tangent held on its strings keeps pressing on the bridge: the key
         // stays sounding (silencing it would drop that force at once, a thump).
         let pressing = self.held != 0 && self.stays_on_strings();
-        if settled && self.level < silence && self.driven == 0 && !pressing && self.lift_in.is_none() {
+        if settled && self.level < silence && self.driven == 0 && !pressing {
             self.silence();
             return true;
         }
@@ -884,6 +929,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Set every string's free step for the damper's present engagement and `pitch`.
     fn set_poles(&mut self, pitch: f64) {
+        self.phantom_stale = true;
         let (rate_s, rate_per_hz_s) = self.damper.extra_decay();
         for s in &mut self.strings {
             s.set_free_step(rate_s, rate_per_hz_s, pitch);
@@ -907,9 +953,10 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.fade_step = 0.0;
         self.level = 0.0;
         self.loudest_n = 0.0;
+        self.culled_last = false;
         self.phantom_on = false;
+        self.phantom_stale = true;
         self.bed_pulse = None;
-        self.lift_in = None;
         if let Some(p) = &mut self.phantom {
             p.silence();
         }
@@ -922,15 +969,21 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         scratch.fill(0.0);
         self.render(scratch, contact);
         let glide = self.strike_gain != self.strike_gain_to;
-        for v in scratch.iter_mut() {
-            if glide {
-                self.strike_gain += (self.strike_gain_to - self.strike_gain) * self.strike_glide;
-            }
-            *v = *v * self.gain_per_n * self.fade * self.strike_gain;
-            if self.fade_step != 0.0 {
-                self.fade = (self.fade + self.fade_step).clamp(0.0, 1.0);
-                if self.fade >= 1.0 && self.fade_step > 0.0 {
-                    self.fade_step = 0.0;
+        if !glide && self.fade_step == 0.0 {
+            // Most stretches: one gain throughout.
+            let (g, f, s) = (self.gain_per_n, self.fade, self.strike_gain);
+            scratch.iter_mut().for_each(|v| *v = *v * g * f * s);
+        } else {
+            for v in scratch.iter_mut() {
+                if glide {
+                    self.strike_gain += (self.strike_gain_to - self.strike_gain) * self.strike_glide;
+                }
+                *v = *v * self.gain_per_n * self.fade * self.strike_gain;
+                if self.fade_step != 0.0 {
+                    self.fade = (self.fade + self.fade_step).clamp(0.0, 1.0);
+                    if self.fade >= 1.0 && self.fade_step > 0.0 {
+                        self.fade_step = 0.0;
+                    }
                 }
             }
         }
@@ -976,16 +1029,19 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 }
             }
         }
-        for (o, a) in out.iter_mut().zip(acc.iter()) {
-            *o += lane_sum(a);
+        if let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) {
+            p.accumulate(acc);
         }
-        self.add_phantom(out);
+        add_lane_sums(acc, out);
     }
 
     /// Add its strings' stretch pulling on the bridge to `out`.
     fn add_phantom(&mut self, out: &mut [f64]) {
         if let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) {
-            p.add_to(out);
+            let acc = &mut self.lanes[..out.len()];
+            acc.fill([0.0; LANES]);
+            p.accumulate(acc);
+            add_lane_sums(acc, out);
         }
     }
 

@@ -38,6 +38,7 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
+use crate::modal_bank::{LANES, free_block};
 use crate::string::StringModes;
 use crate::struck_string::StruckString;
 
@@ -59,13 +60,18 @@ const LONGITUDINAL_MODES: usize = 7;
 
 /// Partials whose products are carried (the lowest; the products of higher
 /// ones are weak and die fast).
-pub const PARTIALS: usize = 16;
+pub const PARTIALS: usize = 12;
+
+/// Products further under the key's loudest partial than this are left out
+/// (-50 dB: well under its partials, and they fall twice as fast).
+pub const BELOW_LOUDEST: f64 = 3e-3;
+
+/// The most products a key carries at once: the first over the floor in the
+/// partials' order, lowest first (the strongest, as a rule).
+const MOST_PRODUCTS: usize = 32;
 
 /// Products above this frequency are left out, Hz.
 const TOP_HZ: f64 = 6_000.0;
-
-/// The most products a string carries.
-const MAX_PAIRS: usize = PARTIALS * (PARTIALS + 1) / 2;
 
 /// The first longitudinal mode of `string`, Hz: its core's stiffness EA (the
 /// core carries the bending, EI = E pi d^4 / 64, and the stretch, EA = E pi
@@ -137,21 +143,22 @@ impl PhantomTable {
 }
 
 /// A key's phantom partials in play: the products set each control block and
-/// turning by their poles. Real-time safe once built.
+/// turning by their poles, packed in groups of [`LANES`] for the modes' own
+/// free kernel. Real-time safe once built.
 pub struct Phantom {
     table: PhantomTable,
-    /// The products above the floor this block, packed: phasor and pole.
     re: Vec<f64>,
     im: Vec<f64>,
     pole_re: Vec<f64>,
     pole_im: Vec<f64>,
+    /// Products in play this block (the arrays are zero past them, to the next group).
     running: usize,
 }
 
 impl Phantom {
     /// In play for `table`. Allocates.
     pub fn new(table: PhantomTable) -> Self {
-        let n = table.len().min(MAX_PAIRS);
+        let n = table.len().min(MOST_PRODUCTS).next_multiple_of(LANES);
         Self { table, re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], running: 0 }
     }
 
@@ -159,53 +166,53 @@ impl Phantom {
     /// `level` (1 = the physics), keeping those over `floor_n`. Returns
     /// whether any is. Allocates: no.
     pub fn start_block(&mut self, strings: &[StruckString], level: f64, floor_n: f64) -> bool {
+        let before = self.running;
         self.running = 0;
-        if !(level > 0.0) {
-            return false;
-        }
-        for &(n, m, gain) in &self.table.pairs {
-            let (n, m) = (n as usize, m as usize);
-            let mut product = Complex64::new(0.0, 0.0);
-            for s in strings {
-                let bank = s.bank();
-                if m < bank.running() {
-                    product += bank.phasor(n) * bank.phasor(m);
+        if level > 0.0 && floor_n.is_finite() {
+            for &(n, m, gain) in &self.table.pairs {
+                let (n, m) = (n as usize, m as usize);
+                let mut product = Complex64::new(0.0, 0.0);
+                for s in strings {
+                    let bank = s.bank();
+                    if m < bank.running() {
+                        product += bank.phasor(n) * bank.phasor(m);
+                    }
                 }
+                let z = product * gain * level;
+                if z.re.abs() + z.im.abs() < floor_n {
+                    continue;
+                }
+                if self.running >= self.re.len() {
+                    break;
+                }
+                let Some(lead) = strings.first() else { continue };
+                let pole = lead.pole(n) * lead.pole(m);
+                let i = self.running;
+                (self.re[i], self.im[i], self.pole_re[i], self.pole_im[i]) = (z.re, z.im, pole.re, pole.im);
+                self.running += 1;
             }
-            let z = product * gain * level;
-            if z.re.abs() + z.im.abs() < floor_n || self.running >= self.re.len() {
-                continue;
-            }
-            let Some(lead) = strings.first() else { continue };
-            let pole = lead.pole(n) * lead.pole(m);
-            let i = self.running;
-            (self.re[i], self.im[i], self.pole_re[i], self.pole_im[i]) = (z.re, z.im, pole.re, pole.im);
-            self.running += 1;
+        }
+        // Clear what the last block left past this one's products.
+        let (from, to) = (self.running, before.max(self.running).next_multiple_of(LANES).min(self.re.len()));
+        for v in [&mut self.re, &mut self.im, &mut self.pole_re, &mut self.pole_im] {
+            v[from..to].fill(0.0);
         }
         self.running > 0
     }
 
-    /// Add the products' pull to `out`, sample by sample, turning them.
-    /// Allocates: no.
-    pub fn add_to(&mut self, out: &mut [f64]) {
-        let n = self.running;
-        let (re, im) = (&mut self.re[..n], &mut self.im[..n]);
-        let (pr, pi) = (&self.pole_re[..n], &self.pole_im[..n]);
-        for o in out.iter_mut() {
-            let mut sum = 0.0;
-            for i in 0..n {
-                sum += re[i];
-                let (r, j) = (re[i] * pr[i] - im[i] * pi[i], re[i] * pi[i] + im[i] * pr[i]);
-                re[i] = r;
-                im[i] = j;
-            }
-            *o += sum;
-        }
+    /// Add the products' pull to `acc` by lane, sample by sample, turning
+    /// them. Allocates: no.
+    pub fn accumulate(&mut self, acc: &mut [[f64; LANES]]) {
+        let n = self.running.next_multiple_of(LANES).min(self.re.len());
+        free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);
     }
 
     /// Forget the products in play.
     pub fn silence(&mut self) {
         self.running = 0;
+        for v in [&mut self.re, &mut self.im, &mut self.pole_re, &mut self.pole_im] {
+            v.fill(0.0);
+        }
     }
 }
 

@@ -48,7 +48,8 @@ pub struct Preset {
     pub instrument: Option<InstrumentKind>,
     /// Scale factors on the instrument's own values (1 = as built).
     pub voicing: Voicing,
-    /// Touch, polyphony, output gain, bend range, Bebung.
+    /// Touch, polyphony, output gain, bend range, Bebung, sympathetic resonance,
+    /// phantom partials and the action's sounds.
     pub controls: Controls,
     pub tuning: TuningSettings,
     /// Where the body's microphones listen from.
@@ -142,6 +143,7 @@ impl Preset {
         }
         within("voicing.unison_detune", v.unison_detune, 0.0, 100.0, "")?;
         within("voicing.board_irregularity", v.board_irregularity, 0.0, 1.0, "")?;
+        within("voicing.felt_hysteresis", v.felt_hysteresis, 0.0, 3.0, "")?;
         let c = &self.controls;
         within("controls.touch_min", c.touch_min, 0.0, 1.0, "")?;
         within("controls.touch_max", c.touch_max, 0.0, 1.0, "")?;
@@ -149,6 +151,15 @@ impl Preset {
         within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
         within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
         within("controls.bebung", c.bebung, 0.0, 1.0, "")?;
+        within("controls.sympathy", c.sympathy, 0.0, 1.0, "")?;
+        for (name, value) in [
+            ("phantom", c.phantom),
+            ("key_noise", c.key_noise),
+            ("damper_noise", c.damper_noise),
+            ("pedal_noise", c.pedal_noise),
+        ] {
+            within(&format!("controls.{name}"), value, 0.0, 4.0, "")?;
+        }
         within("mics.width", self.mics.width, 0.0, 1.0, "")?;
         if !(1..=128).contains(&c.polyphony) {
             return Err(field("controls.polyphony", format!("must be from 1 to 128 keys (got {})", c.polyphony)));
@@ -410,6 +421,42 @@ mod tests {
         assert_eq!(p.tuning.temperament, Temperament::Vallotti);
         assert_eq!(p.tuning.a4_hz, 430.0);
         assert_eq!(p.tuning.stretch, 0.0);
+        // Presets written before these settings existed play them as built.
+        assert_eq!(p.voicing.felt_hysteresis, 1.0);
+        let c = p.controls;
+        assert_eq!([c.sympathy, c.phantom, c.key_noise, c.damper_noise, c.pedal_noise], [1.0; 5]);
+    }
+
+    /// Every voicing and control field survives JSON, the newer ones (felt
+    /// hysteresis, sympathy, phantom partials, the action's sounds) included.
+    #[test]
+    fn every_field_round_trips() {
+        let preset = Preset {
+            name: "Every field".into(),
+            instrument: Some(InstrumentKind::Fortepiano),
+            voicing: Voicing { felt_hysteresis: 2.5, board_irregularity: 0.25, fretted: true, ..Voicing::default() },
+            controls: Controls {
+                bebung: 0.5,
+                sympathy: 0.3,
+                phantom: 3.5,
+                key_noise: 0.0,
+                damper_noise: 2.0,
+                pedal_noise: 4.0,
+                ..Controls::default()
+            },
+            ..Preset::default()
+        };
+        let json = preset.to_json();
+        for field in ["felt_hysteresis", "sympathy", "phantom", "key_noise", "damper_noise", "pedal_noise"] {
+            assert!(json.contains(&format!("\"{field}\"")), "{field} is written: {json}");
+        }
+        assert_eq!(Preset::parse(&json).unwrap(), preset);
+        let text = r#"{"voicing": {"felt_hysteresis": 0}, "controls": {"sympathy": 0, "phantom": 0.5,
+                       "key_noise": 4, "damper_noise": 0.25, "pedal_noise": 0}}"#;
+        let p = Preset::parse(text).unwrap();
+        assert_eq!(p.voicing.felt_hysteresis, 0.0, "0: elastic felt");
+        let c = p.controls;
+        assert_eq!([c.sympathy, c.phantom, c.key_noise, c.damper_noise, c.pedal_noise], [0.0, 0.5, 4.0, 0.25, 0.0]);
     }
 
     #[test]
@@ -424,6 +471,13 @@ mod tests {
             (r#"{"controls": {"polyphony": "many"}}"#, "controls.polyphony: invalid type"),
             (r#"{"controls": {"polyphony": 0}}"#, "controls.polyphony: must be from 1 to 128"),
             (r#"{"controls": {"touch_max": 2}}"#, "controls.touch_max"),
+            (r#"{"voicing": {"felt_hysteresis": -0.5}}"#, "voicing.felt_hysteresis: must be from 0 to 3 (got -0.5)"),
+            (r#"{"controls": {"sympathy": 1.5}}"#, "controls.sympathy: must be from 0 to 1 (got 1.5)"),
+            (r#"{"controls": {"phantom": 5}}"#, "controls.phantom: must be from 0 to 4 (got 5)"),
+            (r#"{"controls": {"key_noise": -1}}"#, "controls.key_noise"),
+            (r#"{"controls": {"damper_noise": 4.5}}"#, "controls.damper_noise"),
+            (r#"{"controls": {"pedal_noise": "loud"}}"#, "controls.pedal_noise: invalid type"),
+            (r#"{"controls": {"sympathetic": 1}}"#, "controls.sympathetic: unknown field"),
             (r#"{"instrument": "organ"}"#, "instrument: unknown variant `organ`"),
             (r#"{"name": 3}"#, "name: invalid type"),
             (r#"{"tuning": {"a4_hz": 500}}"#, "tuning.a4_hz: must be from 380 to 480 Hz (got 500)"),

@@ -12,8 +12,7 @@ use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, defau
 const FS: f64 = 48_000.0;
 
 fn synth(kind: InstrumentKind, controls: Controls) -> Synth {
-    let mut settings = default_settings(kind, FS).heard_through(Output::Microphones);
-    if let Ok(v) = std::env::var("STRETCH") { settings.tuning.stretch = v.parse().unwrap(); }
+    let settings = default_settings(kind, FS).heard_through(Output::Microphones);
     let (mut synth, _) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
     synth.set_controls(controls);
     synth
@@ -116,8 +115,7 @@ fn the_whole_pedalled_keyboard_at_fortissimo_only_ever_dies_away() {
     // strings trade through the body in every pair at once, and the sound may
     // only fall from one second to the next.
     for kind in InstrumentKind::ALL {
-        let sym: f64 = std::env::var("SYM").map_or(1.0, |v| v.parse().unwrap());
-        let mut s = synth(kind, Controls { sympathy: sym, ..Controls::default() });
+        let mut s = synth(kind, Controls::default());
         let mut events = vec![(0.0, Event::Sustain(1.0))];
         events.extend((0..128u8).map(|key| (0.01, Event::NoteOn { key, velocity: 1.0 })));
         let out = play(&mut s, &events, 8.0);

@@ -124,6 +124,10 @@ pub struct StruckParams {
     pub tuning: TuningParams,
     #[nested(group = "Output")]
     pub output: OutputParams,
+    #[nested(group = "Resonance")]
+    pub resonance: ResonanceParams,
+    #[nested(group = "Action")]
+    pub action: ActionParams,
     /// The Scala scale (and keyboard mapping) loaded from the panel, kept with the project.
     #[persist = "scala-scale"]
     pub scala: RwLock<Option<ScalaScale>>,
@@ -164,6 +168,9 @@ pub struct HammerParams {
     pub exponent: FloatParam,
     #[id = "hpos"]
     pub position: FloatParam,
+    /// The felt's hysteresis (Stulov), as built = 1; 0 is an elastic felt.
+    #[id = "hhys"]
+    pub hysteresis: FloatParam,
 }
 
 #[derive(Params)]
@@ -227,6 +234,31 @@ pub struct OutputParams {
     /// How much of the board's resonances the strings feel.
     #[id = "birr"]
     pub irregularity: FloatParam,
+}
+
+/// How the strings ring beyond their own partials (live, no rebuild).
+#[derive(Params)]
+pub struct ResonanceParams {
+    /// How strongly the strings ring with each other through the body, 0..1 of the physics.
+    #[id = "symp"]
+    pub sympathy: FloatParam,
+    /// How loud the phantom partials are, 0..4 times the physics.
+    #[id = "phan"]
+    pub phantom: FloatParam,
+}
+
+/// The action's own sounds, each 0..4 times the physics (live, no rebuild).
+#[derive(Params)]
+pub struct ActionParams {
+    /// A key striking its bed.
+    #[id = "knoi"]
+    pub key_noise: FloatParam,
+    /// A damper landing on its strings (louder for a faster release).
+    #[id = "dnoi"]
+    pub damper_noise: FloatParam,
+    /// The dampers lifting together when the sustain pedal goes down.
+    #[id = "pnoi"]
+    pub pedal_noise: FloatParam,
 }
 
 /// The microphones' perspective as a host parameter (ids are permanent).
@@ -305,6 +337,14 @@ fn scale_param(name: &str, min: f32, max: f32) -> FloatParam {
         .with_string_to_value(formatters::s2v_f32_percentage())
 }
 
+/// A level from 0 to `max` (1 = as built, at the middle of the travel), shown as a percentage.
+fn level_param(name: &str, max: f32) -> FloatParam {
+    FloatParam::new(name, 1.0, FloatRange::Skewed { min: 0.0, max, factor: centred_skew(0.0, max, 1.0) })
+        .with_unit(" %")
+        .with_value_to_string(formatters::v2s_f32_percentage(0))
+        .with_string_to_value(formatters::s2v_f32_percentage())
+}
+
 fn percent_param(name: &str, default: f32) -> FloatParam {
     FloatParam::new(name, default, FloatRange::Linear { min: 0.0, max: 1.0 })
         .with_unit(" %")
@@ -331,6 +371,7 @@ impl Default for StruckParams {
                 stiffness: scale_param("Felt stiffness K", 0.25, 4.0),
                 exponent: scale_param("Felt exponent alpha", 0.5, 2.0),
                 position: scale_param("Strike position", 0.25, 4.0),
+                hysteresis: level_param("Felt hysteresis", 3.0),
             },
             tangent: TangentParams {
                 depth: scale_param("Tangent depth", 0.5, 2.0),
@@ -339,14 +380,7 @@ impl Default for StruckParams {
             },
             strings: StringParams {
                 damping: scale_param("Damping", 0.25, 4.0),
-                detune: FloatParam::new(
-                    "Unison detune",
-                    1.0,
-                    FloatRange::Skewed { min: 0.0, max: 4.0, factor: centred_skew(0.0, 4.0, 1.0) },
-                )
-                .with_unit(" %")
-                .with_value_to_string(formatters::v2s_f32_percentage(0))
-                .with_string_to_value(formatters::s2v_f32_percentage()),
+                detune: level_param("Unison detune", 4.0),
             },
             tuning: TuningParams {
                 a4_hz: FloatParam::new(
@@ -378,6 +412,15 @@ impl Default for StruckParams {
                 board: scale_param("Board size", 0.5, 2.0),
                 irregularity: percent_param("Board irregularity", 0.5),
             },
+            resonance: ResonanceParams {
+                sympathy: percent_param("Sympathetic resonance", 1.0),
+                phantom: level_param("Phantom partials", 4.0),
+            },
+            action: ActionParams {
+                key_noise: level_param("Key noise", 4.0),
+                damper_noise: level_param("Damper noise", 4.0),
+                pedal_noise: level_param("Pedal noise", 4.0),
+            },
             state_version: RwLock::new(STATE_VERSION),
             scala: RwLock::new(None),
             scala_files: RwLock::new(String::new()),
@@ -403,6 +446,7 @@ impl StruckParams {
             fretted: self.tangent.fretted.value(),
             board_size: self.output.board.value() as f64,
             board_irregularity: self.output.irregularity.value() as f64,
+            felt_hysteresis: self.hammer.hysteresis.value() as f64,
         }
     }
 
@@ -455,6 +499,11 @@ impl StruckParams {
             bend_range_semitones: self.output.bend_range.value() as f64,
             bebung: self.tangent.bebung.value() as f64,
             output: self.output.source.value().output(),
+            sympathy: self.resonance.sympathy.value() as f64,
+            phantom: self.resonance.phantom.value() as f64,
+            key_noise: self.action.key_noise.value() as f64,
+            damper_noise: self.action.damper_noise.value() as f64,
+            pedal_noise: self.action.pedal_noise.value() as f64,
         }
     }
 }
@@ -481,23 +530,72 @@ mod tests {
         let p = StruckParams::default();
         let map = p.param_map();
         let ids: Vec<&str> = map.iter().map(|(id, _, _)| id.as_str()).collect();
-        let expected =
-            ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "damp", "detn", "tdep", "bebg", "fret"]
-                .into_iter()
-                .chain(["a4", "temp", "root", "strt", "poly", "bend", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
-                .collect::<Vec<_>>();
+        let expected = ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
+            .into_iter()
+            .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
+            .chain(["poly", "bend", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
+            .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
+            .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();
-        assert_eq!(groups[0], "Instrument");
-        assert_eq!(groups[10], "Tangent");
-        assert_eq!(groups[13], "Tuning");
-        assert_eq!(groups[19], "Output");
+        let group_of = |id: &str| groups[ids.iter().position(|i| *i == id).unwrap()];
+        assert_eq!(group_of("inst"), "Instrument");
+        assert_eq!(group_of("hhys"), "Hammer");
+        assert_eq!(group_of("tdep"), "Tangent");
+        assert_eq!(group_of("a4"), "Tuning");
+        assert_eq!(group_of("poly"), "Output");
+        assert_eq!(group_of("symp"), "Resonance");
+        assert_eq!(group_of("phan"), "Resonance");
+        assert_eq!(group_of("knoi"), "Action");
+        assert_eq!(group_of("pnoi"), "Action");
+        // The hosts' numeric ids are hashes of these (nice-plug's, for CLAP and VST3):
+        // no two may meet, nor may one be more than 6 characters (where they could).
+        let hash = |id: &str| id.bytes().fold(0u32, |h, b| h.wrapping_mul(31).wrapping_add(u32::from(b))) & !(1 << 31);
+        let mut hashes: Vec<u32> = ids.iter().map(|id| hash(id)).collect();
+        hashes.sort_unstable();
+        hashes.dedup();
+        assert_eq!(hashes.len(), ids.len(), "two ids hash alike");
+        assert!(ids.iter().all(|id| id.len() <= 6 && id.is_ascii()), "{ids:?}");
+    }
+
+    /// The new settings reach the engine's structs, each at its own field.
+    #[test]
+    fn resonance_action_and_felt_map_to_controls_and_voicing() {
+        let p = StruckParams::default();
+        let set = |param: &FloatParam, plain: f32| {
+            // SAFETY: as a host does, from one thread, on a parameter alive for the call.
+            unsafe { param.as_ptr()._internal_set_normalized_value(param.preview_normalized(plain)) };
+        };
+        set(&p.resonance.sympathy, 0.25);
+        set(&p.resonance.phantom, 3.0);
+        set(&p.action.key_noise, 0.0);
+        set(&p.action.damper_noise, 2.0);
+        set(&p.action.pedal_noise, 4.0);
+        set(&p.hammer.hysteresis, 0.0);
+        let c = p.controls();
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-4;
+        assert!(close(c.sympathy, 0.25) && close(c.phantom, 3.0), "{c:?}");
+        assert!(close(c.key_noise, 0.0) && close(c.damper_noise, 2.0) && close(c.pedal_noise, 4.0), "{c:?}");
+        assert!(close(p.voicing().felt_hysteresis, 0.0));
+        set(&p.hammer.hysteresis, 3.0);
+        assert!(close(p.voicing().felt_hysteresis, 3.0));
     }
 
     #[test]
     fn scale_ranges_put_as_built_at_mid_travel() {
         let p = StruckParams::default();
-        for param in [&p.hammer.mass, &p.hammer.stiffness, &p.hammer.exponent, &p.strings.damping, &p.strings.detune] {
+        for param in [
+            &p.hammer.mass,
+            &p.hammer.stiffness,
+            &p.hammer.exponent,
+            &p.hammer.hysteresis,
+            &p.strings.damping,
+            &p.strings.detune,
+            &p.resonance.phantom,
+            &p.action.key_noise,
+            &p.action.damper_noise,
+            &p.action.pedal_noise,
+        ] {
             assert!((param.range().normalize(1.0) - 0.5).abs() < 1e-5, "{}", param.name());
             assert!((param.range().unnormalize(0.5) - 1.0).abs() < 1e-5, "{}", param.name());
         }
@@ -509,6 +607,9 @@ mod tests {
         let p = StruckParams::default();
         assert_eq!(p.hammer.mass.normalized_value_to_string(0.5, true), "100 %");
         assert_eq!(p.output.level_db.to_string(), "0.0 dB");
+        assert_eq!(p.resonance.sympathy.to_string(), "100 %");
+        assert_eq!(p.action.pedal_noise.normalized_value_to_string(1.0, true), "400 %");
+        assert_eq!(p.hammer.hysteresis.normalized_value_to_string(0.0, true), "0 %");
         assert_eq!(p.output.polyphony.to_string(), "64 keys");
         assert_eq!(p.instrument.kind.to_string(), "Piano");
     }

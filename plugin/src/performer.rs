@@ -334,13 +334,14 @@ mod tests {
         let sound = run(&mut p, &mut port, 0.3, 256);
         assert!(sound.iter().any(|s| s.abs() > 1e-3), "the key sounds");
         assert!(port.ended.is_empty(), "nothing ends while the key is held");
-        assert_eq!(p.synth().active_keys(), 1);
+        // (The undamped treble strings ring with it: keys sounding unstruck.)
+        assert!(p.synth().key_sounding(72) && p.synth().active_keys() >= 1);
         port.load(&[note_off(0, 72)]);
         run(&mut p, &mut port, 5.0, 256);
         assert_eq!(port.ended.len(), 1, "{:?}", port.ended);
         let (_, key, voice, channel) = port.ended[0];
         assert_eq!((key, voice, channel), (72, Some(42), 3));
-        assert_eq!(p.synth().active_keys(), 0);
+        assert!(!p.synth().key_sounding(72));
     }
 
     #[test]

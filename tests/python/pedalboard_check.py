@@ -37,9 +37,15 @@ EXPECTED_PARAMETERS = [
     "Strike position",
     "Damping",
     "Unison detune",
+    "Felt hysteresis",
     "Polyphony",
     "Bend range",
     "Level",
+    "Sympathetic resonance",
+    "Phantom partials",
+    "Key noise",
+    "Damper noise",
+    "Pedal noise",
 ]
 
 SAMPLE_RATE_HZ = 48_000

@@ -535,6 +535,8 @@ fn refuses_bad_presets() {
         (r#"{"tuning": {"a4_hz": 500}}"#, "tuning.a4_hz"),
         (r#"{"tuning": {"temperament": "scala"}}"#, "tuning.temperament"),
         (r#"{"voicing": {"tangent_depth": -1}}"#, "voicing.tangent_depth"),
+        (r#"{"voicing": {"felt_hysteresis": 4}}"#, "voicing.felt_hysteresis"),
+        (r#"{"controls": {"phantom": -1}}"#, "controls.phantom"),
         ("{", "JSON"),
     ] {
         std::fs::write(&preset, text).unwrap();

@@ -67,18 +67,22 @@ pub struct Bridge {
     out: [[f64; CONTROL_BLOCK]; 2],
     zones: [[f64; CONTROL_BLOCK]; MAX_ZONES],
     len: usize,
+    /// Whether the panned bridge force is heard this stretch (else only the zones are summed).
+    panned: bool,
 }
 
 impl Default for Bridge {
     fn default() -> Self {
-        Self { out: [[0.0; CONTROL_BLOCK]; 2], zones: [[0.0; CONTROL_BLOCK]; MAX_ZONES], len: 0 }
+        Self { out: [[0.0; CONTROL_BLOCK]; 2], zones: [[0.0; CONTROL_BLOCK]; MAX_ZONES], len: 0, panned: true }
     }
 }
 
 impl Bridge {
-    /// Begin a stretch of `len` samples (at most a control block) with nothing driving.
-    pub fn start(&mut self, len: usize) {
+    /// Begin a stretch of `len` samples (at most a control block) with nothing
+    /// driving, the panned bridge force summed only if `panned` (the zones always).
+    pub fn start(&mut self, len: usize, panned: bool) {
         self.len = len.min(CONTROL_BLOCK);
+        self.panned = panned;
         for channel in self.out.iter_mut().chain(self.zones.iter_mut()) {
             channel[..self.len].fill(0.0);
         }
@@ -97,10 +101,12 @@ impl Bridge {
     /// A key pushes with `force` (already at its output gain) at `at`, for the
     /// stretch's samples.
     pub fn drive(&mut self, at: BridgePoint, force: &[f64]) {
-        let [left, right] = &mut self.out;
-        for ((l, r), f) in left[..self.len].iter_mut().zip(&mut right[..self.len]).zip(force) {
-            *l += f * at.left;
-            *r += f * at.right;
+        if self.panned {
+            let [left, right] = &mut self.out;
+            for ((l, r), f) in left[..self.len].iter_mut().zip(&mut right[..self.len]).zip(force) {
+                *l += f * at.left;
+                *r += f * at.right;
+            }
         }
         for (zone, weight) in at.zones.zones.into_iter().zip(at.zones.weights) {
             if weight != 0.0 {
@@ -130,12 +136,12 @@ mod tests {
     #[test]
     fn a_centred_point_sounds_equally_in_both_channels_and_the_sides_in_one() {
         let mut bridge = Bridge::default();
-        bridge.start(4);
+        bridge.start(4, true);
         bridge.drive(BridgePoint::panned(0.0), &[1.0, 2.0, 0.0, -1.0]);
         let (l, r) = bridge.panned();
         assert!(l.iter().zip(r).all(|(l, r)| (l - r).abs() < 1e-12), "{l:?} {r:?}");
         assert!((l[1] - 2.0).abs() < 1e-12, "{l:?}");
-        bridge.start(2);
+        bridge.start(2, true);
         bridge.drive(BridgePoint::panned(-1.0), &[1.0, 1.0]);
         bridge.drive(BridgePoint::panned(1.0), &[0.5, 0.5]);
         let (l, r) = bridge.panned();
@@ -147,7 +153,7 @@ mod tests {
     #[test]
     fn a_key_between_two_zones_shares_its_force_between_them() {
         let mut bridge = Bridge::default();
-        bridge.start(3);
+        bridge.start(3, true);
         let point = BridgePoint::panned(0.0).on_zones(ZoneShare { zones: [2, 3], weights: [0.25, 0.75] });
         bridge.drive(point, &[4.0, 0.0, -8.0]);
         let zones = bridge.zone_forces();

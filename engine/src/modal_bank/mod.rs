@@ -574,6 +574,15 @@ pub fn lane_sum(a: &[f64; LANES]) -> f64 {
     ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
 }
 
+/// Add each sample's [`lane_sum`] of `acc` to `out` (the same sums, bit for
+/// bit, on the machine's widest vectors).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+pub fn add_lane_sums(acc: &[[f64; LANES]], out: &mut [f64]) {
+    for (o, a) in out.iter_mut().zip(acc) {
+        *o += lane_sum(a);
+    }
+}
+
 fn lane_sum_all(values: &[f64]) -> f64 {
     let mut acc = [0.0; LANES];
     let (chunks, _) = values.as_chunks::<LANES>();
@@ -591,7 +600,7 @@ fn lane_sum_all(values: &[f64]) -> f64 {
 pub(crate) const CHAIN: usize = 4;
 
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
-fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
+pub(crate) fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
     let (re, _) = re.as_chunks_mut::<LANES>();
     let (im, _) = im.as_chunks_mut::<LANES>();
     let (pr, _) = pole_re.as_chunks::<LANES>();

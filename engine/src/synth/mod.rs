@@ -30,7 +30,7 @@ use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
-use crate::key::{ActionNoise, Key, TRADE_BLOCKS};
+use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
 use sympathy::Sympathy;
 use crate::string::StringError;
 use crate::string::Tuning;
@@ -65,6 +65,11 @@ const SCOPE_CHUNK: usize = 8;
 pub const SOFTEST_MALLET: f64 = 1.0e-3;
 /// The most threads an instrument's keys are voiced on when it is built.
 const MAX_VOICING_THREADS: usize = 8;
+
+/// The dampers leave their strings over this many control blocks as the
+/// pedal lifts them (10.7 ms at 48 kHz: the tray is not regulated to the
+/// sample), each key at its own block.
+const LIFT_SPREAD_BLOCKS: usize = 8;
 
 /// The release velocity of a key released by a note-on at velocity 0 (MIDI's
 /// default, 64).
@@ -246,7 +251,7 @@ impl Instrument {
             }
         }
         let sympathy = match &load {
-            Some(load) => Sympathy::build(load, &keys, (TRADE_BLOCKS * CONTROL_BLOCK) as f64 / fs),
+            Some(load) => Sympathy::build(load, &keys, (SYMPATHY_BLOCKS * CONTROL_BLOCK) as f64 / fs),
             None => Sympathy::none(),
         };
         // The body's gain puts the middle key's partials where the bridge-force
@@ -392,8 +397,11 @@ pub struct Synth {
     retired: [Option<Box<Instrument>>; 8],
     controls: Controls,
     sustain: f64,
-    /// The sustain pedal has lifted the dampers (until it comes back up).
+    /// The sustain pedal has lifted the dampers (until it comes back up), and
+    /// how far through its spread of control blocks they are leaving their
+    /// strings ([`LIFT_SPREAD_BLOCKS`]).
     dampers_lifted: bool,
+    lifting: Option<usize>,
     sostenuto: bool,
     /// How far una corda shifts the action, 0..=1.
     una_corda: f64,
@@ -427,6 +435,7 @@ impl Synth {
             controls: Controls::default(),
             sustain: 0.0,
             dampers_lifted: false,
+            lifting: None,
             sostenuto: false,
             una_corda: 0.0,
             hardness: 1.0,
@@ -629,6 +638,8 @@ impl Synth {
                 }
                 self.current.soundboard.fade_out(STEAL_FADE_S);
                 self.sustain = 0.0;
+                self.dampers_lifted = false;
+                self.lifting = None;
                 self.sostenuto = false;
                 self.una_corda = 0.0;
                 self.hardness = 1.0;
@@ -645,13 +656,10 @@ impl Synth {
         self.sustain = value.clamp(0.0, 1.0);
         if self.sustain >= 0.5 && !self.dampers_lifted {
             self.dampers_lifted = true;
-            let (sustain, bend, noise) = (self.sustain, self.bend, self.controls.noise());
-            for k in self.current.keys.iter_mut().flatten() {
-                k.set_noise(noise);
-                k.lift_damper(sustain, bend);
-            }
+            self.lifting = Some(0);
         } else if self.sustain < 0.25 {
             self.dampers_lifted = false;
+            self.lifting = None;
         }
     }
 
@@ -703,7 +711,16 @@ impl Synth {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
         let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());
-        if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(TRADE_BLOCKS as u64) {
+        if let Some(phase) = self.lifting {
+            for (k, key) in self.current.keys.iter_mut().enumerate() {
+                if let Some(key) = key.as_mut().filter(|_| k * 5 % LIFT_SPREAD_BLOCKS == phase) {
+                    key.set_noise(noise);
+                    key.lift_damper(sustain, bend);
+                }
+            }
+            self.lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
+        }
+        if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(SYMPATHY_BLOCKS as u64) {
             let current = &mut *self.current;
             current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE);
         }
@@ -738,7 +755,7 @@ impl Synth {
         let scope_key = self.scope.key();
         let output = self.controls.output;
         for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
-            instrument.bridge.start(n);
+            instrument.bridge.start(n, output == Output::BridgeForce);
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 let watched = i == 0 && scope_key == Some(key.midi_key());
                 let contact = if watched { self.scope.contact_slots(n) } else { None };

@@ -59,11 +59,32 @@ impl Timings {
     }
 }
 
-fn piano(polyphony: usize) -> Synth {
+/// What the keyboard workloads play with: the strings on the body, coupled
+/// as unisons, and either everything else too (sympathetic strings, phantom
+/// partials, the action's sounds) or none of it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Extras {
+    On,
+    Off,
+}
+
+fn piano(polyphony: usize, extras: Extras) -> Synth {
     let instrument =
         Instrument::build(&default_settings(InstrumentKind::Piano, SAMPLE_RATE_HZ)).expect("the built-in piano builds");
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
-    synth.set_controls(Controls { polyphony, ..Controls::default() });
+    let controls = match extras {
+        Extras::On => Controls { polyphony, ..Controls::default() },
+        Extras::Off => Controls {
+            polyphony,
+            sympathy: 0.0,
+            phantom: 0.0,
+            key_noise: 0.0,
+            damper_noise: 0.0,
+            pedal_noise: 0.0,
+            ..Controls::default()
+        },
+    };
+    synth.set_controls(controls);
     synth
 }
 
@@ -94,8 +115,8 @@ pub struct KeyboardRun {
 }
 
 /// The full keyboard held for `held_s` seconds, then released for `release_s`,
-/// fastest block of `runs` runs.
-pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize) -> KeyboardRun {
+/// fastest block of `runs` runs, with or without the [`Extras`].
+pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -> KeyboardRun {
     let period_s = BLOCK as f64 / SAMPLE_RATE_HZ;
     let held_blocks = ((held_s / period_s).ceil() as usize).max(2 * 88);
     let release_blocks = ((release_s / period_s).ceil() as usize).max(1);
@@ -109,7 +130,7 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize) -> KeyboardRun {
     let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
     let mut events = Vec::with_capacity(128);
     for run in 0..runs.max(1) {
-        let mut synth = piano(128);
+        let mut synth = piano(128, extras);
         modes = synth.instrument().mode_count();
         let mut times = Vec::with_capacity(held_blocks + release_blocks);
         for b in 0..held_blocks + release_blocks {
@@ -180,7 +201,7 @@ pub fn chord32_realtime_factor(held_s: f64, runs: usize) -> (f64, usize) {
     let mut best = f64::INFINITY;
     let mut keys = 0;
     for _ in 0..runs.max(1) {
-        let mut synth = piano(64);
+        let mut synth = piano(64, Extras::On);
         let start = Instant::now();
         for b in 0..blocks {
             let events = if b == 0 { &notes[..] } else { &[] };
@@ -200,7 +221,7 @@ pub fn idle_load(audio_s: f64, runs: usize) -> f64 {
     let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
     let mut best = f64::INFINITY;
     for _ in 0..runs.max(1) {
-        let mut synth = piano(64);
+        let mut synth = piano(64, Extras::On);
         let start = Instant::now();
         for _ in 0..blocks {
             synth.process(&[], &mut left, &mut right);

@@ -218,6 +218,7 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.strings.detune, v.unison_detune as f32);
     set(setter, &params.output.board, v.board_size as f32);
     set(setter, &params.output.irregularity, v.board_irregularity as f32);
+    set(setter, &params.hammer.hysteresis, v.felt_hysteresis as f32);
     set(setter, &params.tangent.depth, v.tangent_depth as f32);
     set(setter, &params.tangent.fretted, v.fretted);
     let c = &preset.controls;
@@ -228,6 +229,11 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.output.perspective, crate::params::PerspectiveChoice::of(preset.mics.perspective));
     set(setter, &params.output.width, preset.mics.width as f32);
     set(setter, &params.tangent.bebung, c.bebung as f32);
+    set(setter, &params.resonance.sympathy, c.sympathy as f32);
+    set(setter, &params.resonance.phantom, c.phantom as f32);
+    set(setter, &params.action.key_noise, c.key_noise as f32);
+    set(setter, &params.action.damper_noise, c.damper_noise as f32);
+    set(setter, &params.action.pedal_noise, c.pedal_noise as f32);
     set(setter, &params.output.polyphony, c.polyphony.clamp(1, 128) as i32);
     set(setter, &params.output.bend_range, c.bend_range_semitones.round() as i32);
     set(setter, &params.output.level_db, (20.0 * c.output_gain.max(1e-3).log10()) as f32);
@@ -276,7 +282,17 @@ mod tests {
     fn every_factory_preset_loads_into_the_parameters_and_saves_back() {
         let gui = GuiContext::new(Arc::new(Host));
         let setter = gui.param_setter();
-        for preset in factory_presets() {
+        // One beyond the factory's: every newer setting away from as built.
+        let mut voiced = factory_presets().remove(0);
+        voiced.name = "Piano, every setting moved".into();
+        voiced.voicing.felt_hysteresis = 2.5;
+        voiced.voicing.board_irregularity = 0.8;
+        voiced.controls.sympathy = 0.4;
+        voiced.controls.phantom = 3.0;
+        voiced.controls.key_noise = 0.0;
+        voiced.controls.damper_noise = 2.0;
+        voiced.controls.pedal_noise = 0.5;
+        for preset in factory_presets().into_iter().chain([voiced]) {
             let params = StruckParams::default();
             apply(&preset, &params, &setter);
             let saved = Preset {
@@ -293,7 +309,13 @@ mod tests {
             let (v, w) = (&saved.voicing, &preset.voicing);
             assert!(close(v.hammer_mass, w.hammer_mass) && close(v.damping, w.damping), "{what}: {v:?}");
             assert!(close(v.tangent_depth, w.tangent_depth) && v.fretted == w.fretted, "{what}: {v:?}");
-            assert!(close(saved.controls.bebung, preset.controls.bebung), "{what}");
+            assert!(close(v.felt_hysteresis, w.felt_hysteresis), "{what}: {v:?}");
+            assert!(close(v.board_irregularity, w.board_irregularity) && close(v.board_size, w.board_size), "{what}");
+            let (c, d) = (&saved.controls, &preset.controls);
+            assert!(close(c.bebung, d.bebung), "{what}");
+            assert!(close(c.sympathy, d.sympathy) && close(c.phantom, d.phantom), "{what}: {c:?}");
+            assert!(close(c.key_noise, d.key_noise) && close(c.damper_noise, d.damper_noise), "{what}: {c:?}");
+            assert!(close(c.pedal_noise, d.pedal_noise), "{what}: {c:?}");
             // The level parameter moves in steps of 0.1 dB.
             let level_db = 20.0 * (saved.controls.output_gain / preset.controls.output_gain).log10();
             assert!(level_db.abs() <= 0.05, "{what}: {level_db} dB");

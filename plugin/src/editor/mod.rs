@@ -1,5 +1,6 @@
 //! The panel: presets, then every parameter, grouped as a player thinks of them
-//! (Instrument, Touch, Hammer, Strings, Tangent, Tuning, Output), beside a live
+//! (Instrument, Touch, Hammer, Strings, Tangent, Tuning, Output, Resonance and
+//! action), beside a live
 //! view of the physics.
 //!
 //! The panel owns the reading end of the engine's [`Scope`] (behind a mutex
@@ -169,6 +170,7 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
         slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
         slider(ui, "Strike position", &params.hammer.position, setter);
+        slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
     });
     group(ui, "Strings", |ui| {
         slider(ui, "Damping", &params.strings.damping, setter);
@@ -205,6 +207,14 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Width", &params.output.width, setter);
         slider(ui, "Board size", &params.output.board, setter);
         slider(ui, "Irregularity", &params.output.irregularity, setter);
+    });
+    group(ui, "Resonance and action", |ui| {
+        slider(ui, "Sympathetic", &params.resonance.sympathy, setter);
+        slider(ui, "Phantom partials", &params.resonance.phantom, setter);
+        slider(ui, "Key noise", &params.action.key_noise, setter);
+        slider(ui, "Damper noise", &params.action.damper_noise, setter);
+        slider(ui, "Pedal noise", &params.action.pedal_noise, setter);
+        ui.label(RichText::new("100 %: as the physics has them").small());
     });
 }
 

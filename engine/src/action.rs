@@ -35,7 +35,7 @@ pub const ACTION_RATIO: f64 = 5.0;
 pub const KEY_BED_PULSE_S: f64 = 0.002;
 /// The share of the key bed's force that reaches the board: the key frame
 /// stands on the case, which carries the board at its rim.
-pub const KEY_BED_TO_BOARD: f64 = 0.05;
+pub const KEY_BED_TO_BOARD: f64 = 0.03;
 
 /// The damper head's mass (felt, wood and wire), kg.
 pub const DAMPER_MASS_KG: f64 = 0.015;
@@ -111,6 +111,9 @@ pub fn damper_bend(string: &StringModes, position: f64, top_hz: f64, mut bend: i
         // A triangle of peak d at x: q_n = 2 d sin(n pi x) / (n pi)^2 / (x (1 - x)).
         let n_pi = mode.number as f64 * PI;
         let release = pulse_spectrum(mode.frequency_hz(), DAMPER_LIFT_S);
+        if release < 1e-4 {
+            continue;
+        }
         bend(i, 2.0 * peak * release * (n_pi * x).sin() / (n_pi * n_pi * x * (1.0 - x)));
     }
 }

@@ -87,6 +87,11 @@ pub(crate) const TRADE_BLOCKS: usize = 16;
 /// blocks, -7.2 at 4 and -7.3 at 2 (-5.7 at 16).
 pub(crate) const SYMPATHY_BLOCKS: usize = 8;
 
+/// A silent key is woken by the other strings only by a drive this many
+/// times over the silence floor (30 dB: a string barely moved would ring
+/// unheard, at the cost of a key's computing).
+const WAKE_OVER_SILENCE: f64 = 30.0;
+
 /// A key the other strings move stays sounding for this many control blocks
 /// after they last did (they trade every [`SYMPATHY_BLOCKS`]).
 const DRIVEN_BLOCKS: usize = SYMPATHY_BLOCKS + 1;
@@ -512,14 +517,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// The bridge's motion moves partial `partial` of each of `strings` by
     /// `delta` (N): a silent key whose damper would lie on its strings with
     /// the pedal at `sustain` takes nothing, nor one that would be silent at
-    /// once (a drive under `silence` of full scale); one that takes it
-    /// starts to sound, its damper where the pedal has it and
+    /// once (a drive under [`WAKE_OVER_SILENCE`] times `silence` of full
+    /// scale); one that takes it starts to sound, its damper where the pedal has it and
     /// its pitch bent by `bend`, and stays sounding while it is driven.
     /// Allocates: no.
     pub fn drive_partial(&mut self, strings: u8, partial: usize, delta: Complex64, sustain: f64, bend: f64, silence: f64) {
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
         if !self.active {
-            if self.damper.target(false, sustain) >= 1.0 || (delta.re.abs() + delta.im.abs()) * self.gain_per_n < silence {
+            if self.damper.target(false, sustain) >= 1.0 || (delta.re.abs() + delta.im.abs()) * self.gain_per_n < WAKE_OVER_SILENCE * silence {
                 return;
             }
             self.wake(sustain, bend);
@@ -672,6 +677,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
         self.held |= bit;
         self.sounded |= bit;
+        // The unison's next trade comes a whole interval after the strike (the
+        // trade takes its strings' motion as free over the interval).
+        self.blocks_since_trade = 0;
         let pitch = self.pitch(bend);
         self.set_poles(pitch);
         let played = &self.notes[note];
@@ -797,7 +805,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         let level = self.noise.pedal;
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();
-            action::damper_bend(string, position, LIFT_TOP_HZ, |i, dq| bank.nudge(i, -dq * level, 0.0));
+            // As a kick, not a jump: the strings leave the bend moving, their
+            // force on the bridge growing from where it was (a jump would click).
+            action::damper_bend(string, position, LIFT_TOP_HZ, |i, dq| {
+                let w = string.modes.get(i).map_or(0.0, |m| m.omega_rad_s);
+                bank.nudge(i, 0.0, dq * w * level);
+            });
         }
     }
 

@@ -66,8 +66,7 @@ pub const PARTIALS: usize = 12;
 /// (-50 dB: well under its partials, and they fall twice as fast).
 pub const BELOW_LOUDEST: f64 = 3e-3;
 
-/// The most products a key carries at once: the first over the floor in the
-/// partials' order, lowest first (the strongest, as a rule).
+/// The most products a key carries at once: the strongest over the floor.
 const MOST_PRODUCTS: usize = 32;
 
 /// Products above this frequency are left out, Hz.
@@ -153,13 +152,16 @@ pub struct Phantom {
     pole_im: Vec<f64>,
     /// Products in play this block (the arrays are zero past them, to the next group).
     running: usize,
+    /// Scratch for choosing the strongest: size, product, phasor.
+    found: Vec<(f64, usize, Complex64)>,
 }
 
 impl Phantom {
     /// In play for `table`. Allocates.
     pub fn new(table: PhantomTable) -> Self {
         let n = table.len().min(MOST_PRODUCTS).next_multiple_of(LANES);
-        Self { table, re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], running: 0 }
+        let found = vec![(0.0, 0, Complex64::new(0.0, 0.0)); table.len()];
+        Self { table, re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], running: 0, found }
     }
 
     /// At a control block: set every product from `strings`' phasors at
@@ -168,8 +170,11 @@ impl Phantom {
     pub fn start_block(&mut self, strings: &[StruckString], level: f64, floor_n: f64) -> bool {
         let before = self.running;
         self.running = 0;
+        let Some(lead) = strings.first() else { return false };
         if level > 0.0 && floor_n.is_finite() {
-            for &(n, m, gain) in &self.table.pairs {
+            // Every product over the floor, then the strongest kept.
+            let mut found = 0;
+            for (k, &(n, m, gain)) in self.table.pairs.iter().enumerate() {
                 let (n, m) = (n as usize, m as usize);
                 let mut product = Complex64::new(0.0, 0.0);
                 for s in strings {
@@ -179,18 +184,22 @@ impl Phantom {
                     }
                 }
                 let z = product * gain * level;
-                if z.re.abs() + z.im.abs() < floor_n {
-                    continue;
+                let size = z.re.abs() + z.im.abs();
+                if size >= floor_n && found < self.found.len() {
+                    self.found[found] = (size, k, z);
+                    found += 1;
                 }
-                if self.running >= self.re.len() {
-                    break;
-                }
-                let Some(lead) = strings.first() else { continue };
-                let pole = lead.pole(n) * lead.pole(m);
-                let i = self.running;
-                (self.re[i], self.im[i], self.pole_re[i], self.pole_im[i]) = (z.re, z.im, pole.re, pole.im);
-                self.running += 1;
             }
+            let kept = found.min(self.re.len());
+            if found > kept && kept > 0 {
+                self.found[..found].select_nth_unstable_by(kept - 1, |a, b| b.0.total_cmp(&a.0));
+            }
+            for (i, &(_, k, z)) in self.found[..kept].iter().enumerate() {
+                let (n, m, _) = self.table.pairs[k];
+                let pole = lead.pole(n as usize) * lead.pole(m as usize);
+                (self.re[i], self.im[i], self.pole_re[i], self.pole_im[i]) = (z.re, z.im, pole.re, pole.im);
+            }
+            self.running = kept;
         }
         // Clear what the last block left past this one's products.
         let (from, to) = (self.running, before.max(self.running).next_multiple_of(LANES).min(self.re.len()));

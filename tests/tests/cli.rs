@@ -415,8 +415,13 @@ fn refuses_a_tangent_without_a_displacement() {
 }
 
 #[test]
-fn refuses_hysteresis_until_it_exists() {
-    refuses(&edited(|c| c["exciter"]["hysteresis"] = 0.99.into()), "exciter.hysteresis: not supported yet");
+fn refuses_a_felt_hysteresis_out_of_its_range() {
+    refuses(&edited(|c| c["exciter"]["hysteresis"] = 0.99.into()), "exciter.hysteresis: must be an object");
+    refuses(
+        &edited(|c| c["exciter"]["hysteresis"] = serde_json::json!({"epsilon": 1.5, "tau_s": 1e-5})),
+        "exciter.hysteresis.epsilon",
+    );
+    refuses(&edited(|c| c["exciter"]["hysteresis"] = serde_json::json!({"epsilon": 0.2, "tau_s": 0.0})), "exciter.hysteresis.tau_s");
 }
 
 #[test]

@@ -12,7 +12,9 @@ pub enum Event {
     Sustain(f32),
     /// CC66, held at or above 0.5: the keys down at that moment keep their dampers lifted.
     Sostenuto(f32),
-    /// CC67, at or above 0.5: una corda (the hammer shifts to fewer strings of each unison).
+    /// CC67, 0 to 1: una corda, how far the action shifts (at 1 the hammer
+    /// misses one string of each unison; in between it meets it with less of
+    /// its width).
     UnaCorda(f32),
     /// Pitch wheel, -1 to 1 (centre 0); the bend range is a control.
     PitchBend(f32),

@@ -12,19 +12,25 @@
 //! moves the bridge: a unison's out-of-step strings neither drive nor are
 //! driven (Weinreich's aftersound stays its own).
 //!
-//! Every [`TRADE_BLOCKS`] control blocks each pair of partials trades what
+//! Every [`crate::key::SYMPATHY_BLOCKS`] control blocks each pair of partials trades what
 //! that drive gives over the interval, taking the other's free motion over it
-//! as exact: key a's partial gains -c_a Y_ab M_b (e^((lambda_a - lambda_b) h)
-//! - 1) / (lambda_a - lambda_b), the forced response of its pole to the
-//! other's. Partials far apart in pitch barely answer; only pairs within
+//! as exact: key a's partial gains -c_a Y_ab M_b times
+//! (e^((lambda_a - lambda_b) h) - 1) / (lambda_a - lambda_b), the forced
+//! response of its pole to the other's. Partials far apart in pitch barely answer; only pairs within
 //! [`WINDOW_HZ`] are kept, and pairs whose answer stays under [`NEGLIGIBLE`].
+//! Each sounding key's partials are summed once (gather), every pair adds
+//! what it gives (trade), and each partial takes it at once (scatter); a
+//! silent key takes it only if its damper is off, and wakes only for a drive
+//! it would not fall silent from.
 //!
-//! The trade is two-way, so energy leaves the driving string as it should,
-//! and kept passive: in the strings' energy measure each partial gives away
-//! per interval at most [`PASSIVE_SHARE`] of what it loses into the board
-//! itself in that time, the coupling scaled down where it would give more
-//! (diagonal dominance of the step: the keyboard's trading can only lose
-//! energy, however many keys ring together).
+//! The trade is two-way, so energy leaves the driving string as it should.
+//! A passive board's transfer admittance is bounded by its drive-point ones
+//! (|Y_ab|^2 <= Re Y_aa Re Y_bb for a single mode, and so near a resonance):
+//! in the strings' energy measure each pair is held under [`PASSIVE_SHARE`]
+//! of the root of what each loses into the board alone. The whole keyboard
+//! struck at once with the pedal down only ever dies away (a test), and the
+//! step's error against shorter intervals is under 0.5 dB on the measured
+//! difference the pedal makes (see [`crate::key::SYMPATHY_BLOCKS`]).
 
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 

@@ -147,16 +147,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     );
     let pass =
         goals.check("after_release_worst_block", keyboard.after_release_worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal(
-        "worst block",
-        format!("{} of {period_ms:.2} ms", percent(keyboard.after_release_worst_block_fraction)),
-        format!("< {}", percent(WORST_BLOCK_MAX)),
-        pass,
-    );
-    out.line(match keyboard.silent_after_s {
-        Some(s) => format!("  every key silent {s:.2} s after the release"),
-        None => format!("  {} keys still sounding {:.2} s after the release", keyboard.keys_left, keyboard.release_s),
-    });
+    out.goal("worst block", of_period(keyboard.after_release_worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    out.line(after_release(&keyboard));
 
     // The same with everything on.
     out.blank();
@@ -166,16 +158,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let pass = goals.check("full_keyboard_all_load", all.load_fraction, Below, FULL_KEYBOARD_ALL_LOAD_MAX);
     out.goal("load", percent_of_core(all.load_fraction), format!("< {}", percent(FULL_KEYBOARD_ALL_LOAD_MAX)), pass);
     let pass = goals.check("full_keyboard_all_worst_block", all.worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal(
-        "worst block (the chord's included)",
-        format!("{} of {period_ms:.2} ms", percent(all.worst_block_fraction)),
-        format!("< {}", percent(WORST_BLOCK_MAX)),
-        pass,
-    );
-    out.line(match all.silent_after_s {
-        Some(s) => format!("  every key silent {s:.2} s after the release"),
-        None => format!("  {} keys still sounding {:.2} s after the release", all.keys_left, all.release_s),
-    });
+    out.goal("worst block (the chord's included)", of_period(all.worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    out.line(after_release(&all));
 
     // The 32-note chord, offline.
     out.blank();
@@ -305,6 +289,19 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
             .map_err(|e| Failure::failed(format!("cannot write the report: {e}")))?;
     }
     Ok(())
+}
+
+/// A block's time as a share of its period, with the period.
+fn of_period(fraction: f64) -> String {
+    format!("{} of {:.2} ms", percent(fraction), 1e3 * BLOCK as f64 / SAMPLE_RATE_HZ)
+}
+
+/// What was still sounding after a keyboard run's release.
+fn after_release(run: &workload::KeyboardRun) -> String {
+    match run.silent_after_s {
+        Some(s) => format!("  every key silent {s:.2} s after the release"),
+        None => format!("  {} keys still sounding {:.2} s after the release", run.keys_left, run.release_s),
+    }
 }
 
 /// Width of the label column of a goal line.

@@ -37,7 +37,8 @@ pub const KEY_BED_PULSE_S: f64 = 0.002;
 /// stands on the case, which carries the board at its rim.
 pub const KEY_BED_TO_BOARD: f64 = 0.03;
 
-/// The damper head's mass (felt, wood and wire), kg.
+/// A grand piano's damper head's mass (felt, wood and wire), kg: each
+/// design's own is [`crate::design::DamperDesign::head_mass_kg`].
 pub const DAMPER_MASS_KG: f64 = 0.015;
 /// The damper's landing speed at the fastest release, m/s (it falls with the key).
 pub const DAMPER_LANDING_M_S: f64 = 0.3;

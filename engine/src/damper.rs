@@ -57,6 +57,11 @@ impl Damper {
         self.design.is_some()
     }
 
+    /// The mass that lands on the strings with it, kg (0: none).
+    pub fn head_mass_kg(&self) -> f64 {
+        self.design.map_or(0.0, |d| d.head_mass_kg)
+    }
+
     /// Put it where [`Self::target`] says at once: a silent key's damper, which
     /// has not followed the pedal, when its strings start to ring with others.
     pub fn settle(&mut self, key_up_held: bool, sustain: f64) {
@@ -88,7 +93,8 @@ impl Damper {
 mod tests {
     use super::*;
 
-    const FELT: DamperDesign = DamperDesign { rate_s: 10.0, rate_per_hz_s: 0.01, travel_s: 0.02, pedal_only: false };
+    const FELT: DamperDesign =
+        DamperDesign { rate_s: 10.0, rate_per_hz_s: 0.01, travel_s: 0.02, pedal_only: false, head_mass_kg: 0.015 };
 
     #[test]
     fn a_released_key_s_damper_settles_over_its_travel_and_the_pedal_holds_it_off() {

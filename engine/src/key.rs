@@ -773,7 +773,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
         self.phantom_stale = true;
         self.culled_last = false;
-        let impulse = action::DAMPER_MASS_KG * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
+        let impulse = self.damper.head_mass_kg() * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
         let share = -impulse / self.strings.len().max(1) as f64;
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();

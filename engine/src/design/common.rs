@@ -129,7 +129,7 @@ pub(super) fn pan(midi_key: u8, keys: RangeInclusive<u8>) -> f64 {
 /// and higher partials faster by `rate_per_hz_s` (felt absorbs short waves better).
 pub(super) fn damper(decay_60_db_s: f64, rate_per_hz_s: f64, f1_hz: f64, travel_s: f64) -> DamperDesign {
     let rate_s = (DECAY_60_DB / decay_60_db_s - rate_per_hz_s * f1_hz).max(0.0);
-    DamperDesign { rate_s, rate_per_hz_s, travel_s, pedal_only: false }
+    DamperDesign { rate_s, rate_per_hz_s, travel_s, pedal_only: false, head_mass_kg: crate::action::DAMPER_MASS_KG }
 }
 
 /// Where an instrument's strings lose their energy (physics reference 1.4 and 1.7).

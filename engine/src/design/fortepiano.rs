@@ -38,7 +38,7 @@ use std::sync::OnceLock;
 
 use super::common::{FELT_HYSTERESIS, Level, Losses, Table, damper, pan};
 use super::scale::Scale;
-use super::{KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{DamperDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
 
 pub(super) const KEYS: RangeInclusive<u8> = 29..=91;
 
@@ -117,7 +117,12 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         resistive_bridge: losses.resistive_bridge(voicing),
         exciter: row.hammer(voicing),
         // 60 dB in 0.35 s at F1 shortening to 0.12 s at G6: light, quick dampers.
-        damper: Some(damper(0.35 * (0.12f64 / 0.35).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.012)),
+        // A Viennese action's dampers are light wooden levers with a
+        // leather or cloth pad: a third of a grand's head.
+        damper: Some(DamperDesign {
+            head_mass_kg: 5.0e-3,
+            ..damper(0.35 * (0.12f64 / 0.35).powf(t), 2.0e-3, key_frequency_hz(midi_key), 0.012)
+        }),
         gain_per_n: LEVEL.gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S), pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S)),
         pan: pan(midi_key, KEYS),

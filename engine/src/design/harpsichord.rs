@@ -33,7 +33,7 @@ use super::common::{
     BRASS_DENSITY_KG_M3, BRASS_MODULUS_PA, Level, Losses, Table, damper, flexible_tension_n, pan, voiced_position,
     wire_mass_per_length_kg_m, with_losses,
 };
-use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{DamperDesign, ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
 use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 
@@ -143,7 +143,9 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
         // The jack's cloth damper: 60 dB in 0.2 s.
-        damper: Some(damper(0.2, 5.0e-3, f1_hz, 0.01)),
+        // A jack's cloth flag settles on the string as the jack falls onto
+        // its key: only the cloth's own gram or so lands on the string.
+        damper: Some(DamperDesign { head_mass_kg: 1.0e-3, ..damper(0.2, 5.0e-3, f1_hz, 0.01) }),
         gain_per_n: LEVEL.gain_per_n(midi_key, peak_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, peak_n),
         pan: pan(midi_key, KEYS),

@@ -276,6 +276,9 @@ pub struct DamperDesign {
     /// The damper is worked by the pedal alone (a cimbalom's damper bar): keys do
     /// not lift it, so a note-off changes nothing.
     pub pedal_only: bool,
+    /// The mass that lands on the strings with the damper as the key comes
+    /// up, kg (its momentum there is the damper's thud, [`crate::action`]).
+    pub head_mass_kg: f64,
 }
 
 /// Another key that plays the same strings as the key it is listed under: the

@@ -114,6 +114,11 @@ fn a_long_random_session_allocates_nothing_on_the_audio_thread() {
             polyphony: 1 + rng.below(64) as usize,
             output_gain: rng.unit(),
             touch_shape: 0.5 + rng.unit(),
+            sympathy: rng.unit(),
+            phantom: 4.0 * rng.unit(),
+            key_noise: 4.0 * rng.unit(),
+            damper_noise: 4.0 * rng.unit(),
+            pedal_noise: 4.0 * rng.unit(),
             ..Controls::default()
         };
         let kind_before = synth.settings().clone();

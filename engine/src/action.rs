@@ -94,13 +94,15 @@ pub fn kick_modes(string: &StringModes, position: f64, impulse_n_s: f64, contact
     }
 }
 
-/// How far each of `string`'s modes is bent by a damper's weight at
-/// `position` (a triangle of peak W / k_x, k_x = T / (x (1 - x) L) the
-/// string's stiffness there), m, let go over [`DAMPER_LIFT_S`] (the share of
-/// the bend each mode keeps is the spectrum of that release at its
-/// frequency), for each mode in turn (`bend(i, dq)`); only partials under
-/// `top_hz`.
-pub fn damper_bend(string: &StringModes, position: f64, top_hz: f64, mut bend: impl FnMut(usize, f64)) {
+/// How each of `string`'s modes springs back when a damper's weight at
+/// `position` lets it go: the bend it held (a triangle of peak W / k_x,
+/// k_x = T / (x (1 - x) L) the string's stiffness there), released over
+/// [`DAMPER_LIFT_S`] (each mode keeps the spectrum of that release at its
+/// frequency), as the velocity kick omega_n q_n that rings the mode as far
+/// (a kick, not a jump in displacement: the bridge force grows from where it
+/// was, where a jump would click), m/s, for each mode in turn (`kick(i,
+/// dv)`); only partials under `top_hz`.
+pub fn damper_release(string: &StringModes, position: f64, top_hz: f64, mut kick: impl FnMut(usize, f64)) {
     let x = position.clamp(0.01, 0.99);
     let length = string.length_m;
     let stiffness = string.tension_n / (x * (1.0 - x) * length);
@@ -115,7 +117,8 @@ pub fn damper_bend(string: &StringModes, position: f64, top_hz: f64, mut bend: i
         if release < 1e-4 {
             continue;
         }
-        bend(i, 2.0 * peak * release * (n_pi * x).sin() / (n_pi * n_pi * x * (1.0 - x)));
+        let bend_m = 2.0 * peak * release * (n_pi * x).sin() / (n_pi * n_pi * x * (1.0 - x));
+        kick(i, -bend_m * mode.omega_rad_s);
     }
 }
 

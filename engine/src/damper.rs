@@ -57,6 +57,11 @@ impl Damper {
         self.design.is_some()
     }
 
+    /// Whether the key works it (a cimbalom's damper bar answers the pedal alone).
+    pub fn follows_key(&self) -> bool {
+        self.design.is_some_and(|d| !d.pedal_only)
+    }
+
     /// The mass that lands on the strings with it, kg (0: none).
     pub fn head_mass_kg(&self) -> f64 {
         self.design.map_or(0.0, |d| d.head_mass_kg)

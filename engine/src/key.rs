@@ -768,7 +768,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// a damper only the pedal works.
     fn land_damper(&mut self, note: usize, velocity: f64) {
         let Some(position) = self.notes.get(note).and_then(|n| n.damper_position()) else { return };
-        if self.noise.damper <= 0.0 || !self.active || !self.on_body {
+        if self.noise.damper <= 0.0 || !self.active || !self.on_body || !self.damper.follows_key() {
             return;
         }
         self.phantom_stale = true;
@@ -805,12 +805,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         let level = self.noise.pedal;
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();
-            // As a kick, not a jump: the strings leave the bend moving, their
-            // force on the bridge growing from where it was (a jump would click).
-            action::damper_bend(string, position, LIFT_TOP_HZ, |i, dq| {
-                let w = string.modes.get(i).map_or(0.0, |m| m.omega_rad_s);
-                bank.nudge(i, 0.0, dq * w * level);
-            });
+            action::damper_release(string, position, LIFT_TOP_HZ, |i, dv| bank.nudge(i, 0.0, dv * level));
         }
     }
 
@@ -1011,8 +1006,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Add the key bed's pulse, while it lasts, to `out` (at output gain).
     fn add_key_bed(&mut self, out: &mut [f64]) {
-        let Some((start, speed)) = self.bed_pulse else { return };
-        let fs = self.strings.first().map_or(48_000.0, StruckString::sample_rate_hz);
+        let (Some((start, speed)), Some(fs)) = (self.bed_pulse, self.strings.first().map(StruckString::sample_rate_hz)) else {
+            return;
+        };
         let gain = self.gain_per_n * self.fade * self.noise.key_bed;
         for (t, o) in out.iter_mut().enumerate() {
             *o += gain * action::key_bed_force_n(start + t, speed, fs);

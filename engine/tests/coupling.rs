@@ -234,9 +234,7 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     let mut bed = Vec::new();
     for velocity in [40.0f32 / 127.0, 1.0] {
         let events = [(0.0, Event::NoteOn { key: C4, velocity })];
-        let with = play(&mut synth(InstrumentKind::Piano, Controls::default()), &events, 0.3);
-        let without = play(&mut synth(InstrumentKind::Piano, Controls { key_noise: 0.0, ..Controls::default() }), &events, 0.3);
-        let thump: Vec<f64> = with.iter().zip(&without).map(|(a, b)| a - b).collect();
+        let thump = added_by(InstrumentKind::Piano, Controls { key_noise: 0.0, ..Controls::default() }, &events, 0.3);
         bed.push(peak_db(&thump) - note_db);
     }
     println!("key bed: {:.1} dB (velocity 40), {:.1} dB (127) re the peak of C4 at velocity 80", bed[0], bed[1]);
@@ -245,9 +243,7 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     let mut landing = Vec::new();
     for release in [0.1f32, 1.0] {
         let events = [(0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 }), (0.5, Event::NoteOff { key: C4, velocity: release })];
-        let with = play(&mut synth(InstrumentKind::Piano, Controls::default()), &events, 1.0);
-        let without = play(&mut synth(InstrumentKind::Piano, Controls { damper_noise: 0.0, ..Controls::default() }), &events, 1.0);
-        let thud: Vec<f64> = with.iter().zip(&without).map(|(a, b)| a - b).collect();
+        let thud = added_by(InstrumentKind::Piano, Controls { damper_noise: 0.0, ..Controls::default() }, &events, 1.0);
         landing.push(peak_db(&thud) - note_db);
     }
     println!("damper landing: {:.1} dB (release 0.1), {:.1} dB (release 1) re the note's peak", landing[0], landing[1]);
@@ -258,4 +254,16 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     let (lift_db, quiet_db) = (peak_db(&lifted) - note_db, peak_db(&quiet));
     println!("dampers lifting: {lift_db:.1} dB re the note's peak (off: {quiet_db:.1} dBFS)");
     assert!((-70.0..=-20.0).contains(&lift_db) && quiet_db < -200.0, "{lift_db:.1} {quiet_db:.1}");
+    // A cimbalom's damper bar answers the pedal alone: a note-off lands nothing.
+    let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.8 }), (0.3, Event::NoteOff { key: 60, velocity: 1.0 })];
+    let thud = added_by(InstrumentKind::Cimbalom, Controls { damper_noise: 0.0, ..Controls::default() }, &events, 0.6);
+    assert!(peak_db(&thud) < -200.0, "a cimbalom note-off landed {:.1} dBFS", peak_db(&thud));
+}
+
+/// What the default controls add to `events` on `kind` over `without`
+/// (the same with a sound turned off), sample by sample.
+fn added_by(kind: InstrumentKind, without: Controls, events: &[(f64, Event)], seconds: f64) -> Vec<f64> {
+    let with = play(&mut synth(kind, Controls::default()), events, seconds);
+    let without = play(&mut synth(kind, without), events, seconds);
+    with.iter().zip(&without).map(|(a, b)| a - b).collect()
 }

@@ -135,3 +135,17 @@ driven_kernel!(
     _mm256_fmadd_pd,
     _mm256_fmsub_pd
 );
+
+/// [`super::add_lane_sums`] with AVX: each sample's lanes summed in registers
+/// in [`lane_sum`]'s order, ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)),
+/// so the bits are the portable loop's. (The compiler's own version of that
+/// loop transposes the lanes with gathers, several times slower.)
+#[target_feature(enable = "avx")]
+pub(super) fn add_lane_sums_avx(acc: &[[f64; LANES]], out: &mut [f64]) {
+    for (o, a) in out.iter_mut().zip(acc) {
+        // SAFETY: a is LANES = 8 f64 long: two unaligned loads of 4.
+        let lanes = unsafe { _mm256_add_pd(_mm256_loadu_pd(a.as_ptr()), _mm256_loadu_pd(a.as_ptr().add(4))) };
+        let pairs = _mm_hadd_pd(_mm256_castpd256_pd128(lanes), _mm256_extractf128_pd::<1>(lanes));
+        *o += _mm_cvtsd_f64(_mm_add_sd(pairs, _mm_unpackhi_pd(pairs, pairs)));
+    }
+}

@@ -41,6 +41,23 @@ pub const SOUND_SPEED_M_S: f64 = 343.0;
 pub const SPRUCE: Wood =
     Wood { density_kg_m3: 420.0, e_along_pa: 9.05e9, e_across_pa: 0.817e9, shear_pa: 1.196e9, poisson_along: 0.438 };
 
+/// Hard (sugar) maple, the usual wood of a bridge, as recalled from the USDA
+/// Wood Handbook (FPL-GTR-190, Table 5-3a: MOE 12.6 GPa, specific gravity
+/// 0.63, so about 705 kg/m^3 at 12 % moisture); not re-verified in this session.
+/// Along its grain, which runs along the bridge.
+pub const MAPLE_E_PA: f64 = 12.6e9;
+pub const MAPLE_DENSITY_KG_M3: f64 = 705.0;
+
+/// What a board's bridges are: continuous maple beams of a section that
+/// carry the strings' motion along themselves, or a row of separate small
+/// bridges, one to a course, joined only by the board (the santur's
+/// "chessmen").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bridges {
+    Continuous { width_m: f64, height_m: f64 },
+    Separate,
+}
+
 /// Black walnut, as recalled from the USDA Wood Handbook (FPL-GTR-190, Tables 5-1
 /// and 5-3: E_L 11.6 GPa, E_R/E_L 0.106, G_LR/E_L 0.085, nu_LR 0.495, specific
 /// gravity 0.55); not re-verified in this session. Santoor/santur tops are
@@ -170,6 +187,8 @@ pub struct BodyDesign {
     pub keys: RangeInclusive<u8>,
     /// Bridges and the keys on each.
     pub bridges: Vec<BridgeLine>,
+    /// Whether each bridge line is one beam or a row of separate bridges.
+    pub bridge_kind: Bridges,
     /// Plausible range of the first body mode, Hz, and why.
     pub first_mode_range_hz: (f64, f64, &'static str),
 }
@@ -185,6 +204,48 @@ impl BodyDesign {
             .find(|b| b.keys.contains(&key))
             .or(self.bridges.last())
             .map_or((0.5, 0.5), |b| b.point(key))
+    }
+
+    /// The bridge line `midi_key`'s strings bear on.
+    fn bridge_of(&self, midi_key: u8) -> Option<&BridgeLine> {
+        let key = self.bridge_key(midi_key);
+        self.bridges.iter().find(|b| b.keys.contains(&key)).or(self.bridges.last())
+    }
+
+    /// A bridge line's length, m.
+    fn line_length_m(&self, bridge: &BridgeLine) -> f64 {
+        let (a, b) = (self.plate.length_m, self.plate.width_m);
+        bridge.points.windows(2).map(|w| ((w[1].0 - w[0].0) * a).hypot((w[1].1 - w[0].1) * b)).sum()
+    }
+
+    /// The bridges as beams, when they are continuous: bending stiffness EI
+    /// (N m^2, bending under the strings' push, so about the section's width)
+    /// and mass per length (kg/m), of maple.
+    pub fn bridge_beam(&self) -> Option<(f64, f64)> {
+        match self.bridge_kind {
+            Bridges::Continuous { width_m, height_m } if width_m > 0.0 && height_m > 0.0 => {
+                let area = width_m * height_m;
+                Some((MAPLE_E_PA * width_m * height_m.powi(3) / 12.0, MAPLE_DENSITY_KG_M3 * area))
+            }
+            _ => None,
+        }
+    }
+
+    /// How far apart along one bridge two keys' strings bear, m; None when
+    /// they bear on different bridges.
+    pub fn along_bridge_m(&self, a: u8, b: u8) -> Option<f64> {
+        let (la, lb) = (self.bridge_of(a)?, self.bridge_of(b)?);
+        if la != lb {
+            return None;
+        }
+        let (ka, kb) = (self.bridge_key(a), self.bridge_key(b));
+        Some((la.fraction(ka) - la.fraction(kb)).abs() * self.line_length_m(la))
+    }
+
+    /// How far apart two keys' bridge points are across the board, m.
+    pub fn apart_m(&self, a: u8, b: u8) -> f64 {
+        let (pa, pb) = (self.bridge_point(a), self.bridge_point(b));
+        ((pa.0 - pb.0) * self.plate.length_m).hypot((pa.1 - pb.1) * self.plate.width_m)
     }
 
     /// The body's modes up to `max_hz`: plate modes plus the air mode (if any, and
@@ -319,6 +380,9 @@ pub fn design(instrument: InstrumentKind) -> BodyDesign {
 /// the bent side; long bridge: keys 41-108 running diagonally from the tail
 /// towards the treble corner. Mics: "player" 0.3 m above the board's keyboard
 /// end in the middle, "lid" 1 m above the bent side's middle.
+/// Bridges: maple, 32 mm wide and 34 mm tall (Fandrich, piano designer, PTG
+/// list 2009: "a nominal width of about 32 mm and a height in the 30 - 34 mm
+/// range", 30 mm at C8 and taller into the tenor).
 fn piano_grand() -> BodyDesign {
     let plate = Plate {
         length_m: 1.5,
@@ -339,6 +403,7 @@ fn piano_grand() -> BodyDesign {
             BridgeLine { keys: 21..=40, points: &[(0.80, 0.78), (0.86, 0.62)] },
             BridgeLine { keys: 41..=108, points: &[(0.62, 0.86), (0.42, 0.55), (0.20, 0.18)] },
         ],
+        bridge_kind: Bridges::Continuous { width_m: 0.032, height_m: 0.034 },
         first_mode_range_hz: (
             30.0,
             120.0,
@@ -351,6 +416,7 @@ fn piano_grand() -> BodyDesign {
 /// (assumption: the instrument is about 2.2 m by 0.95 m); 3.5 mm spruce
 /// (assumption: Viennese boards of the period are commonly given as 3-4 mm);
 /// light ribs 12 mm x 10 mm at 0.2 m (assumption). One bridge, not overstrung.
+/// Bridge: maple, 18 mm x 22 mm (assumption: a light Viennese bridge).
 fn fortepiano() -> BodyDesign {
     let plate = Plate {
         length_m: 1.3,
@@ -368,6 +434,7 @@ fn fortepiano() -> BodyDesign {
         air: None,
         keys: 29..=91,
         bridges: vec![BridgeLine { keys: 29..=91, points: &[(0.82, 0.85), (0.5, 0.5), (0.15, 0.15)] }],
+        bridge_kind: Bridges::Continuous { width_m: 0.018, height_m: 0.022 },
         first_mode_range_hz: (
             25.0,
             150.0,
@@ -381,6 +448,7 @@ fn fortepiano() -> BodyDesign {
 /// clavichord boards are 2-3 mm); no ribs. The box below and its rose give an
 /// air mode: 0.55 m x 0.3 m x 0.1 m of air (the case's bass end), a 60 mm rose
 /// (assumption). Bridge: one S-curved bridge.
+/// Bridge: 8 mm x 12 mm (assumption).
 fn clavichord() -> BodyDesign {
     let plate = Plate {
         length_m: 0.45,
@@ -398,6 +466,7 @@ fn clavichord() -> BodyDesign {
         air: Some(AirCavity { volume_m3: 0.55 * 0.3 * 0.1, holes: 1, hole_radius_m: 0.03, wall_m: 0.0025 }),
         keys: 36..=88,
         bridges: vec![BridgeLine { keys: 36..=88, points: &[(0.85, 0.85), (0.55, 0.55), (0.2, 0.2)] }],
+        bridge_kind: Bridges::Continuous { width_m: 0.008, height_m: 0.012 },
         first_mode_range_hz: (
             50.0,
             500.0,
@@ -413,6 +482,7 @@ fn clavichord() -> BodyDesign {
 /// boards have few bars). Case air: 1.6 x 0.6 x 0.15 m with no rose (the Italian
 /// rose is small; here one of 40 mm radius, assumption). Bridge: bass at the
 /// tail, treble near the nut end.
+/// Bridge: 10 mm x 14 mm (assumption: Italian bridges are slender).
 fn harpsichord() -> BodyDesign {
     let plate = Plate {
         length_m: 1.6,
@@ -430,6 +500,7 @@ fn harpsichord() -> BodyDesign {
         air: Some(AirCavity { volume_m3: 1.6 * 0.6 * 0.15 * 0.6, holes: 1, hole_radius_m: 0.04, wall_m: 0.003 }),
         keys: 36..=86,
         bridges: vec![BridgeLine { keys: 36..=86, points: &[(0.88, 0.80), (0.55, 0.50), (0.12, 0.22)] }],
+        bridge_kind: Bridges::Continuous { width_m: 0.010, height_m: 0.014 },
         first_mode_range_hz: (
             20.0,
             150.0,
@@ -443,7 +514,8 @@ fn harpsichord() -> BodyDesign {
 /// (assumption); internal posts ignored. Box 0.06 m deep: V = 0.78 x 0.3 x 0.06
 /// m^3; two roses of 25 mm radius (assumption). Bridges: the bass column (keys
 /// 52-70, right) and the treble column (71-89, left), each running from the back
-/// (long strings) to the front.
+/// (long strings) to the front. Each column is a row of separate "chessman" bridges, one to a
+/// course (Náini 2007, two columns of 9), joined only by the top.
 fn santoor() -> BodyDesign {
     let plate = Plate {
         length_m: 0.78,
@@ -464,6 +536,7 @@ fn santoor() -> BodyDesign {
             BridgeLine { keys: 52..=70, points: &[(0.75, 0.88), (0.75, 0.12)] },
             BridgeLine { keys: 71..=89, points: &[(0.30, 0.88), (0.30, 0.12)] },
         ],
+        bridge_kind: Bridges::Separate,
         first_mode_range_hz: (
             80.0,
             500.0,
@@ -478,6 +551,7 @@ fn santoor() -> BodyDesign {
 /// braces under the bridges ignored. Box 75 mm deep; two 38 mm radius (3")
 /// roses (assumption). Bass bridge at 0.8 of the length, treble bridge at 0.4
 /// (it divides the treble courses 3:2, Peterson 1994).
+/// Bridges: 13 mm x 19 mm (assumption: about 1/2" by 3/4").
 fn dulcimer() -> BodyDesign {
     let plate = Plate {
         length_m: 0.82,
@@ -498,6 +572,7 @@ fn dulcimer() -> BodyDesign {
             BridgeLine { keys: 50..=61, points: &[(0.80, 0.88), (0.80, 0.15)] },
             BridgeLine { keys: 62..=79, points: &[(0.40, 0.90), (0.40, 0.10)] },
         ],
+        bridge_kind: Bridges::Continuous { width_m: 0.013, height_m: 0.019 },
         first_mode_range_hz: (
             60.0,
             400.0,
@@ -512,6 +587,7 @@ fn dulcimer() -> BodyDesign {
 /// construction on a smaller scale). Box 0.12 m deep, three roses of 40 mm
 /// radius (assumption). Bridges: wound bass courses 36-51 on the right bridge,
 /// steel courses 52-88 on the left.
+/// Bridges: 20 mm x 25 mm (assumption: a piano's, smaller).
 fn cimbalom() -> BodyDesign {
     let plate = Plate {
         length_m: 1.18,
@@ -532,6 +608,7 @@ fn cimbalom() -> BodyDesign {
             BridgeLine { keys: 36..=51, points: &[(0.78, 0.88), (0.78, 0.12)] },
             BridgeLine { keys: 52..=88, points: &[(0.38, 0.90), (0.38, 0.10)] },
         ],
+        bridge_kind: Bridges::Continuous { width_m: 0.020, height_m: 0.025 },
         first_mode_range_hz: (
             40.0,
             250.0,

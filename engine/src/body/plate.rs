@@ -22,6 +22,8 @@
 
 use std::f64::consts::PI;
 
+use num_complex::Complex64;
+
 /// Edge condition of the plate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Boundary {
@@ -341,6 +343,166 @@ pub fn modal_density(plate: &Plate, _f_hz: f64) -> f64 {
     0.5 * plate.area_m2() * (plate.mass_per_area() / plate.mean_stiffness()).sqrt()
 }
 
+/// The plate's own bending wavenumber at `f_hz`, rad/m, for the smeared
+/// plate's geometric-mean stiffness, its loss factor taken as a complex
+/// stiffness D (1 + i eta) (so the imaginary part is negative: e^(i(wt - kx))
+/// decays as it goes).
+pub fn plate_wavenumber(plate: &Plate, f_hz: f64) -> Complex64 {
+    let w = 2.0 * PI * f_hz;
+    (Complex64::new(w * w * plate.mass_per_area(), 0.0) / complex_stiffness(plate)).powf(0.25)
+}
+
+fn complex_stiffness(plate: &Plate) -> Complex64 {
+    let d = plate.mean_stiffness();
+    Complex64::new(d, d * plate.loss_factor)
+}
+
+/// The board's line mobility to a line force of trace wavenumber `k` along
+/// it, (velocity) / (force per length), s/kg: Y = w / (4 D kp^2) (1/a - i/b)
+/// with a = sqrt(kp^2 - k^2), b = sqrt(kp^2 + k^2). From the plate equation
+/// D (d^2/dy^2 - k^2)^2 W - rho h w^2 W = F delta(y): on each side
+/// W = A e^(-i a y) + B e^(-b y), no slope at the line, and the jump of the shear force,
+/// 2 D W'''(0+) = F. A real a is a wave carried off into the board (the
+/// real part, the power taken), an imaginary one only a near field. For k = 0
+/// it is the line-driven plate's (1 - i) w / (4 D kp^3).
+pub fn line_mobility(plate: &Plate, k: Complex64, f_hz: f64) -> Complex64 {
+    let w = 2.0 * PI * f_hz;
+    let kp = plate_wavenumber(plate, f_hz);
+    // A trace faster than the board's own wave sheds it outward (Re a > 0: a
+    // leaky wave, whose field grows away from the line as it was shed
+    // further back); a slower one is held as a near field (Im a < 0).
+    let mut a = (kp * kp - k * k).sqrt();
+    if (k.re < kp.re && a.re < 0.0) || (k.re >= kp.re && a.im > 0.0) {
+        a = -a;
+    }
+    let mut b = (kp * kp + k * k).sqrt();
+    if b.re < 0.0 {
+        b = -b;
+    }
+    w / (4.0 * complex_stiffness(plate) * kp * kp) * (1.0 / a - Complex64::i() / b)
+}
+
+/// A bending wave along a beam on the board ([`beam_wave`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeamWave {
+    /// Wavenumber, rad/m, Re > 0 > Im.
+    pub k: Complex64,
+    /// 1 / (EI k^3), the driven point's mobility over (1 - i) w / 4: its phase
+    /// is what the transfer keeps.
+    scale: Complex64,
+}
+
+impl BeamWave {
+    /// The wave `t` (0..=1) of the way to `other` (a nearby frequency's).
+    pub fn towards(&self, other: &Self, t: f64) -> Self {
+        Self { k: self.k + (other.k - self.k) * t, scale: self.scale + (other.scale - self.scale) * t }
+    }
+
+    /// The transfer from a driven point to one `distance_m` along the beam,
+    /// over the driven point's resistance (its real part is 1 there): the
+    /// Green's function of an infinite beam whose every root is k's,
+    /// (e^(-ikx) - i e^(-kx)) / (EI k^3). A passive beam's, so the real parts
+    /// between any set of points form a positive semi-definite matrix.
+    pub fn transfer(&self, distance_m: f64) -> Complex64 {
+        let x = distance_m.abs();
+        let shape = |x: f64| (-Complex64::i() * self.k * x).exp() - Complex64::i() * (-self.k * x).exp();
+        self.scale * shape(x) / (self.scale * shape(0.0)).re
+    }
+}
+
+/// The bending wave along a beam that lies on the board (a bridge) at `f_hz`.
+/// The beam of bending stiffness `ei` (N m^2) and mass `rho_a` (kg/m) is held by
+/// the board along its length, which answers its motion with
+/// [`line_mobility`]: EI k^4 - rho_A w^2 + i w / Y(k) = 0, solved by Newton's
+/// method from about the bare beam's k. A beam whose bare wave is faster than
+/// the board's (k under kp) sheds it into the board as it goes (a leaky
+/// wave); one slower keeps it but for the loss factor, taken by both as a
+/// complex stiffness. None when the board overwhelms the beam: every root
+/// decays within a radian of travel (a light bridge on a heavy board, low
+/// down), and the board, not the bridge, carries the motion.
+pub fn beam_wave(plate: &Plate, ei: f64, rho_a: f64, f_hz: f64) -> Option<BeamWave> {
+    let w = 2.0 * PI * f_hz;
+    let ei = Complex64::new(ei, ei * plate.loss_factor);
+    let bare = (Complex64::new(rho_a * w * w, 0.0) / ei).powf(0.25);
+    let balance = |k: Complex64| ei * k.powi(4) - rho_a * w * w + Complex64::i() * w / line_mobility(plate, k, f_hz);
+    let scale = rho_a * w * w;
+    let solve = |start: Complex64| {
+        let mut k = start;
+        for _ in 0..80 {
+            let f = balance(k);
+            let h = k * 1e-7;
+            let step = f / ((balance(k + h) - f) / h);
+            if !step.is_finite() {
+                return None;
+            }
+            k -= step;
+            if step.norm() < 1e-13 * k.norm() {
+                break;
+            }
+        }
+        // Of the root's two signs, the one travelling outward.
+        let k = if k.re < 0.0 { -k } else { k };
+        (k.is_finite() && k.im <= 0.0 && balance(k).norm() < 1e-9 * scale).then_some(k)
+    };
+    [1.0, 0.9, 1.2, 0.7, 1.5]
+        .iter()
+        .flat_map(|s| [Complex64::new(*s, 0.0), Complex64::new(*s, -0.3 * s)])
+        .filter_map(|s| solve(bare * s))
+        .filter(|k| -k.im < k.re)
+        .min_by(|p, q| (-p.im / p.re).total_cmp(&(-q.im / q.re)))
+        .map(|k| BeamWave { k, scale: 1.0 / (ei * k.powi(3)) })
+}
+
+/// The transfer across the board from a driven point to one `distance_m`
+/// away at `f_hz`, over the driven point's own: the infinite plate's
+/// J0(x) - i (Y0(x) + (2/pi) K0(x)), x = kp r (Cremer & Heckl's point-driven
+/// plate; its real part, J0, is the correlation of a diffuse field, so the
+/// real parts between any points form a positive semi-definite matrix), its
+/// decay by the loss factor, e^(Im kp r), a positive-definite factor too.
+pub fn across_plate(plate: &Plate, distance_m: f64, f_hz: f64) -> Complex64 {
+    let kp = plate_wavenumber(plate, f_hz);
+    let r = distance_m.abs();
+    let (j0, y0, k0) = bessel_zero(kp.re * r);
+    Complex64::new(j0, -(y0 + 2.0 / PI * k0)) * (kp.im * r).exp()
+}
+
+/// The Bessel functions J0, Y0 and K0 at x >= 0. At x = 0, where Y0 and K0
+/// are infinite but Y0 + (2/pi) K0 -> 0, they are given as (1, 0, 0). Power
+/// series (Abramowitz & Stegun 9.1.12-13, 9.6.12-13) up to x = 25, where they
+/// still hold 1e-9; beyond, Hankel's asymptotic series (9.2.5-10, two terms)
+/// and K0 ~ 0 (under 1e-11).
+fn bessel_zero(x: f64) -> (f64, f64, f64) {
+    const GAMMA: f64 = 0.577_215_664_901_532_9;
+    if x <= 0.0 {
+        return (1.0, 0.0, 0.0);
+    }
+    if x <= 25.0 {
+        let q = 0.25 * x * x;
+        let (mut term, mut harmonic) = (1.0, 0.0);
+        let (mut j0, mut i0, mut yj, mut ki) = (1.0, 1.0, 0.0, 0.0);
+        for k in 1..200 {
+            let kf = k as f64;
+            term *= q / (kf * kf);
+            harmonic += 1.0 / kf;
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            j0 += sign * term;
+            i0 += term;
+            yj -= sign * harmonic * term;
+            ki += harmonic * term;
+            if term < 1e-17 * i0 {
+                break;
+            }
+        }
+        let log = (0.5 * x).ln() + GAMMA;
+        let y0 = 2.0 / PI * (log * j0 + yj);
+        let k0 = -log * i0 + ki;
+        return (j0, y0, k0);
+    }
+    let (p, q) = (1.0 - 9.0 / (128.0 * x * x), -1.0 / (8.0 * x));
+    let (phase, size) = (x - PI / 4.0, (2.0 / (PI * x)).sqrt());
+    (size * (p * phase.cos() - q * phase.sin()), size * (p * phase.sin() + q * phase.cos()), 0.0)
+}
+
 /// Geometric mean of |Y| over a band (`points` log-spaced samples), s/kg.
 pub fn log_mean_abs_mobility(
     plate: &Plate,
@@ -446,5 +608,116 @@ mod tests {
         assert!(im_lo > 0.0 && re_lo.abs() < 0.05 * im_lo, "{re_lo} {im_lo}");
         let (re_hi, _) = residual_mobility(&p, 2000.0, 8000.0);
         assert!((re_hi / mean_mobility(&p) - 1.0).abs() < 0.1, "{re_hi}");
+    }
+
+    /// Whether a real symmetric matrix is positive semi-definite, to `tol`
+    /// of its largest diagonal term (Cholesky with a small shift).
+    fn semi_definite(m: &[Vec<f64>], tol: f64) -> bool {
+        let n = m.len();
+        let shift = tol * m.iter().enumerate().map(|(i, r)| r[i]).fold(0.0, f64::max);
+        let mut l = vec![vec![0.0; n]; n];
+        for i in 0..n {
+            for j in 0..=i {
+                let sum: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+                if i == j {
+                    let d = m[i][i] + shift - sum;
+                    if d <= 0.0 {
+                        return false;
+                    }
+                    l[i][i] = d.sqrt();
+                } else {
+                    l[i][j] = (m[i][j] - sum) / l[j][j];
+                }
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn a_line_driven_plate_takes_cremer_and_heckls_mobility() {
+        // An infinite plate driven along a line (no trace wave): Y' = (1 - i)
+        // / (4 rho h c_B) per metre, c_B = w / kp (Cremer & Heckl, line force).
+        let mut plate = bare(Boundary::Clamped);
+        plate.loss_factor = 0.0;
+        for f in [100.0, 1000.0, 5000.0] {
+            let w = 2.0 * PI * f;
+            let kp = (w * w * plate.mass_per_area() / plate.mean_stiffness()).powf(0.25);
+            let expected = Complex64::new(1.0, -1.0) * kp / (4.0 * plate.mass_per_area() * w);
+            let y = line_mobility(&plate, Complex64::new(0.0, 0.0), f);
+            assert!((y / expected - 1.0).norm() < 1e-9, "{f} Hz: {y} against {expected}");
+            // A trace wave slower than the plate's own makes only a near field:
+            // it takes no power.
+            assert!(line_mobility(&plate, Complex64::new(1.5 * kp, 0.0), f).re.abs() < 1e-12 * y.norm());
+        }
+    }
+
+    #[test]
+    fn a_bridge_on_the_board_carries_a_wave_that_gives_itself_to_the_board() {
+        let plate = bare(Boundary::Clamped);
+        // A 40 mm maple bridge.
+        let (area, e, rho) = (0.04 * 0.04, 12.6e9, 705.0);
+        let (ei, rho_a) = (e * area * area / 12.0, rho * area);
+        for f in [700.0, 1500.0, 4000.0] {
+            let w = 2.0 * PI * f;
+            let wave = beam_wave(&plate, ei, rho_a, f).unwrap();
+            let k = wave.k;
+            let balance = Complex64::new(ei, ei * plate.loss_factor) * k.powi(4) - rho_a * w * w
+                + Complex64::i() * w / line_mobility(&plate, k, f);
+            assert!(balance.norm() < 1e-8 * rho_a * w * w, "{f} Hz: {balance}");
+            // Faster than the board's own wave: it sheds itself as it goes.
+            let bare_k = (rho_a * w * w / ei).powf(0.25);
+            assert!(bare_k < plate_wavenumber(&plate, f).re);
+            assert!(k.im < 0.0 && (k.re / bare_k - 1.0).abs() < 0.3, "{f} Hz: {k} against {bare_k}");
+            // From the driven point outward it falls at e^(Im k x) once the
+            // near field has gone.
+            assert!((wave.transfer(0.0).re - 1.0).abs() < 1e-12);
+            let far = wave.transfer(1.5).norm() / wave.transfer(1.0).norm();
+            assert!((far / (0.5 * k.im).exp() - 1.0).abs() < 0.02, "{f} Hz: {far}");
+        }
+        // A bridge over a board it outweighs keeps its own wave.
+        let feather = Plate { thickness_m: 0.0005, ..bare(Boundary::Clamped) };
+        let k = beam_wave(&feather, ei, rho_a, 1000.0).unwrap().k;
+        let bare_k = (rho_a * (2.0 * PI * 1000.0f64).powi(2) / ei).powf(0.25);
+        assert!((k.re / bare_k - 1.0).abs() < 0.05, "{k} against {bare_k}");
+    }
+
+    #[test]
+    fn bessel_functions_of_order_zero_take_their_tabulated_values() {
+        // Abramowitz & Stegun, tables 9.1 and 9.8 (K0 as e^x K0 there).
+        for (x, j0, y0, k0) in [
+            (1.0, 0.765_197_686_6, 0.088_256_964_2, 0.421_024_438_2),
+            (5.0, -0.177_596_771_3, -0.308_517_625_2, 0.003_691_098_3),
+            (10.0, -0.245_935_764_5, 0.055_671_167_3, 1.778_006_232e-5),
+        ] {
+            let (a, b, c) = bessel_zero(x);
+            assert!((a - j0).abs() < 1e-9 && (b - y0).abs() < 1e-9 && (c - k0).abs() < 1e-9, "{x}: {a} {b} {c}");
+        }
+        // Series and asymptote meet.
+        let (lo, hi) = (bessel_zero(25.0), bessel_zero(25.000_001));
+        assert!((lo.0 - hi.0).abs() < 1e-6 && (lo.1 - hi.1).abs() < 1e-6, "{lo:?} {hi:?}");
+        // The transfer across the plate starts at the drive point's own.
+        assert!((across_plate(&bare(Boundary::Clamped), 1e-9, 500.0) - 1.0).norm() < 1e-6);
+    }
+
+    #[test]
+    fn the_direct_field_between_points_is_passive() {
+        // The transfers between n points form a matrix whose real (Hermitian)
+        // part must be positive semi-definite: no set of forces may draw
+        // power out of the board. Along a bridge, and across the plate.
+        let plate = bare(Boundary::Clamped);
+        let (ei, rho_a) = (12.6e9 * 0.04f64.powi(4) / 12.0, 705.0 * 0.0016);
+        let along: Vec<f64> = (0..24).map(|i| 0.014 * i as f64).collect();
+        let across: Vec<(f64, f64)> = (0..20).map(|i| (0.05 * i as f64, 0.3 * (0.7 * i as f64).sin())).collect();
+        for f in [150.0, 700.0, 1500.0, 4000.0] {
+            if let Some(wave) = beam_wave(&plate, ei, rho_a, f) {
+                let m: Vec<Vec<f64>> = along.iter().map(|x| along.iter().map(|y| wave.transfer(x - y).re).collect()).collect();
+                assert!(semi_definite(&m, 1e-9), "{f} Hz along the bridge");
+            }
+            let m: Vec<Vec<f64>> = across
+                .iter()
+                .map(|p| across.iter().map(|q| across_plate(&plate, (p.0 - q.0).hypot(p.1 - q.1), f).re).collect())
+                .collect();
+            assert!(semi_definite(&m, 1e-9), "{f} Hz across the plate");
+        }
     }
 }

@@ -519,19 +519,24 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// the pedal at `sustain` takes nothing, nor one that would be silent at
     /// once (a drive under [`WAKE_OVER_SILENCE`] times `silence` of full
     /// scale); one that takes it starts to sound, its damper where the pedal has it and
-    /// its pitch bent by `bend`, and stays sounding while it is driven.
+    /// its pitch bent by `bend`, and stays sounding while it is driven that hard.
     /// Allocates: no.
     pub fn drive_partial(&mut self, strings: u8, partial: usize, delta: Complex64, sustain: f64, bend: f64, silence: f64) {
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
+        let felt = (delta.re.abs() + delta.im.abs()) * self.gain_per_n >= WAKE_OVER_SILENCE * silence;
         if !self.active {
-            if self.damper.target(false, sustain) >= 1.0 || (delta.re.abs() + delta.im.abs()) * self.gain_per_n < WAKE_OVER_SILENCE * silence {
+            if self.damper.target(false, sustain) >= 1.0 || !felt {
                 return;
             }
             self.wake(sustain, bend);
         }
         // (The phantom products follow at their next refresh: a trade moves
-        // a partial by a little.)
-        self.driven = DRIVEN_BLOCKS;
+        // a partial by a little.) Only a drive that would wake it keeps it
+        // sounding: a damped key the undamped treble moves faintly, and keys
+        // that faintly move each other, still fall silent.
+        if felt {
+            self.driven = DRIVEN_BLOCKS;
+        }
         self.culled_last = false;
         for (i, s) in self.strings.iter_mut().enumerate() {
             if strings & (1 << i) == 0 || partial >= s.bank().len() {

@@ -62,6 +62,7 @@ pub(crate) mod damper;
 pub mod phantom;
 pub mod design;
 pub mod exciter;
+pub mod input;
 pub(crate) mod key;
 pub mod modal_bank;
 pub mod preset;

@@ -113,11 +113,8 @@ impl Preset {
     /// Read and check a preset file; the error names the file.
     pub fn load(path: &Path) -> Result<Self, PresetError> {
         let file_error = |reason: String| PresetError::File { path: path.to_path_buf(), reason };
-        let size = fs::metadata(path).map_err(|e| file_error(format!("cannot read: {e}")))?.len();
-        if size > MAX_FILE_BYTES {
-            return Err(file_error(format!("{size} bytes is too large for a preset (at most {MAX_FILE_BYTES})")));
-        }
-        let text = fs::read_to_string(path).map_err(|e| file_error(format!("cannot read: {e}")))?;
+        let bytes = crate::input::read_regular(path, MAX_FILE_BYTES).map_err(|e| file_error(e.to_string()))?;
+        let text = String::from_utf8(bytes).map_err(|_| file_error("not UTF-8 text".into()))?;
         Self::parse(&text).map_err(|e| file_error(e.to_string()))
     }
 

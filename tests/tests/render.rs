@@ -579,14 +579,15 @@ fn refuses_bad_tuning_files() {
     );
 }
 
-/// A WAV that cannot be put in place (the name is taken by a directory) fails
-/// with status 1 and leaves nothing behind.
+/// A WAV whose name is taken by a directory is refused before anything is
+/// rendered (status 2: nothing replaces a directory), and leaves nothing behind.
 #[test]
 fn a_failed_write_leaves_nothing() {
     let scratch = Scratch::new();
     std::fs::create_dir(scratch.out()).unwrap();
     let out = scratch.render(&midi("a4.mid"), &["--tail-s", "0"]);
-    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("is a directory"), "{}", stderr(&out));
     assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
     assert!(scratch.out().is_dir());
     assert!(scratch.others(&["out.wav"]).is_empty(), "{:?}", scratch.others(&["out.wav"]));

@@ -79,7 +79,7 @@ pub enum TuningFileError {
     #[error("{}: cannot read: {source}", path.display())]
     Read { path: PathBuf, source: std::io::Error },
     #[error("{}: {reason}", path.display())]
-    TooLarge { path: PathBuf, reason: String },
+    Refused { path: PathBuf, reason: String },
     #[error("{}: {source}", path.display())]
     Malformed { path: PathBuf, source: TuningError },
 }
@@ -166,15 +166,12 @@ fn decode(bytes: Vec<u8>) -> String {
 }
 
 fn read_file(path: &Path) -> Result<String, TuningFileError> {
-    let read = |source| TuningFileError::Read { path: path.to_path_buf(), source };
-    let size = std::fs::metadata(path).map_err(read)?.len();
-    if size > MAX_FILE_BYTES {
-        return Err(TuningFileError::TooLarge {
-            path: path.to_path_buf(),
-            reason: format!("{size} bytes is too large for a tuning file (at most {MAX_FILE_BYTES})"),
-        });
+    use crate::input::{ReadError, read_regular};
+    match read_regular(path, MAX_FILE_BYTES) {
+        Ok(bytes) => Ok(decode(bytes)),
+        Err(ReadError::Io(source)) => Err(TuningFileError::Read { path: path.to_path_buf(), source }),
+        Err(e) => Err(TuningFileError::Refused { path: path.to_path_buf(), reason: e.to_string() }),
     }
-    Ok(decode(std::fs::read(path).map_err(read)?))
 }
 
 impl ScalaScale {

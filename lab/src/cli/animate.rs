@@ -92,6 +92,7 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
     if !(args.periods.is_finite() && args.periods > 0.0 && args.periods <= 100.0) {
         return Err(Failure::bad_input(format!("--periods: must lie above 0 and at most 100 (got {})", args.periods)));
     }
+    super::output::check_writable(&args.out, &[args.case.as_path()])?;
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
             .map_err(|e| Failure::failed(format!("{}: cannot create: {e}", parent.display())))?;

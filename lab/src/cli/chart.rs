@@ -113,9 +113,8 @@ fn parse_kind(name: &str) -> Result<InstrumentKind, Failure> {
 
 /// Read and check a case file, with `--set` edits.
 pub fn read_case(path: &Path, sets: &[String]) -> Result<StrikeCase, Failure> {
-    let shown = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
-    strike::parse_case(&text, sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))
+    let text = super::input::read_text(path, super::input::MAX_CASE_BYTES)?;
+    strike::parse_case(&text, sets).map_err(|e| Failure::bad_input(format!("{}: {e}", super::shown(path))))
 }
 
 fn check_grid(grid: usize) -> Result<(), Failure> {

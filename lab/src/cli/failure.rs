@@ -1,5 +1,7 @@
 //! How a subcommand fails: a one-line message and the exit status it deserves.
 
+use std::path::Path;
+
 /// Exit status for input that Struck refuses (a malformed case, a bad argument).
 pub const EXIT_BAD_INPUT: u8 = 2;
 /// Exit status when the work could not be done (e.g. the output cannot be written).
@@ -19,5 +21,33 @@ impl Failure {
 
     pub fn failed(message: impl Into<String>) -> Self {
         Self { status: EXIT_FAILURE, message: message.into() }
+    }
+
+    /// The message as one printable line: control characters (a file's own
+    /// escape sequences, line breaks) shown as escapes, never acted on.
+    pub fn line(&self) -> String {
+        printable(&self.message)
+    }
+}
+
+/// `text` with every control character written as its escape (\n, \u{1b}).
+pub fn printable(text: &str) -> String {
+    text.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+}
+
+/// A path as a message shows it (printable, see [`printable`]).
+pub fn shown(path: &Path) -> String {
+    printable(&path.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_message_is_one_line_with_its_escapes_shown() {
+        let f = Failure::bad_input("song.mid: bad text \u{1b}[31mred\u{1b}[0m\nsecond line\r");
+        assert_eq!(f.line(), "song.mid: bad text \\u{1b}[31mred\\u{1b}[0m\\nsecond line\\r");
+        assert_eq!(shown(Path::new("a\u{7}b.mid")), "a\\u{7}b.mid");
     }
 }

@@ -14,9 +14,11 @@ pub mod render;
 pub mod strike;
 
 mod failure;
+pub mod input;
 pub mod output;
+pub mod room;
 
-pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure};
+pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure, printable, shown};
 
 use std::process::ExitCode;
 
@@ -114,7 +116,21 @@ pub fn command() -> clap::Command {
 
 /// Parse the command line and run the subcommand it names; the exit status.
 pub fn run() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help, --version: what was asked for, on stdout.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // One line: clap's message (up to its usage block), joined.
+            let text = e.render().to_string();
+            let message: Vec<&str> = text.lines().take_while(|l| !l.trim().is_empty()).map(str::trim).collect();
+            eprintln!("struck: {}", printable(message.join(" ").trim_start_matches("error: ")));
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
     let result = match cli.command {
         Command::Strike(args) => strike::run(&args).map_err(|e| ("struck strike", e)),
         Command::Bench(args) => bench::run(&args).map_err(|e| ("struck bench", e)),
@@ -126,7 +142,7 @@ pub fn run() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err((command, failure)) => {
-            eprintln!("{command}: {}", failure.message);
+            eprintln!("{command}: {}", failure.line());
             ExitCode::from(failure.status)
         }
     }

@@ -1,32 +1,108 @@
-//! Writing results so that nothing is half-written: every file goes to a
-//! temporary name beside its destination and is renamed into place only after
-//! all of them were written in full.
+//! Writing results so that nothing is half-written and nothing the user gave
+//! is lost: every file goes to a short temporary name beside its destination,
+//! and only once all of them were written in full are they put in place
+//! together; if one cannot be, those already placed are taken back and what
+//! stood there before is restored. A destination may not be one of the
+//! command's inputs (the same file, however named), nor named twice, nor
+//! anything but a regular file (a device, a directory, a FIFO is never
+//! replaced). Folders made for the outputs are removed again if nothing was
+//! put in them.
 
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::failure::Failure;
+use super::failure::{Failure, shown};
+
+/// A file's identity on its file system (the same file under any name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct FileId {
+    device: u64,
+    inode: u64,
+}
+
+fn identity(path: &Path) -> Option<FileId> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        fs::metadata(path).ok().map(|m| FileId { device: m.dev(), inode: m.ino() })
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        None
+    }
+}
 
 /// Files written to temporary names, waiting to be put in place together.
 #[derive(Default)]
 pub struct Staged {
+    /// (temporary, destination), in the order staged.
     files: Vec<(PathBuf, PathBuf)>,
+    /// The command's inputs: how the user named them, and what they are.
+    inputs: Vec<(PathBuf, FileId)>,
+    /// Folders made for the outputs, outermost first.
+    made: Vec<PathBuf>,
+    committed: bool,
 }
 
-fn temporary_beside(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.part-{}", std::process::id()))
+/// Refuse to write `path` if it is not a regular file, or is one of `inputs`.
+fn check_destination(path: &Path, inputs: &[(PathBuf, FileId)]) -> Result<(), Failure> {
+    let Ok(meta) = fs::metadata(path) else { return Ok(()) };
+    if !meta.is_file() {
+        let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
+        return Err(Failure::bad_input(format!("{}: is {what}; nothing is written over it", shown(path))));
+    }
+    if let Some(id) = identity(path)
+        && let Some((input, _)) = inputs.iter().find(|(_, i)| *i == id)
+    {
+        return Err(Failure::bad_input(format!(
+            "{}: is {}, one of the inputs; it would be overwritten",
+            shown(path),
+            shown(input)
+        )));
+    }
+    Ok(())
+}
+
+/// Check that `path` may be written by a command that read `inputs`, for
+/// those that write through their own staging (charts, animations).
+pub fn check_writable(path: &Path, inputs: &[&Path]) -> Result<(), Failure> {
+    check_destination(path, &Staged::reading(inputs).inputs)
 }
 
 impl Staged {
+    /// Staging for a command that read `inputs` (none of them may be written).
+    pub fn reading(inputs: &[&Path]) -> Self {
+        let inputs = inputs.iter().filter_map(|p| identity(p).map(|id| (p.to_path_buf(), id))).collect();
+        Self { files: Vec::new(), inputs, made: Vec::new(), committed: false }
+    }
+
+    /// The folder `dir` and any missing above it, made and remembered.
+    fn make_folders(&mut self, dir: &Path) -> Result<(), Failure> {
+        let missing: Vec<&Path> = dir.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).collect();
+        for d in missing.into_iter().rev() {
+            fs::create_dir(d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(d))))?;
+            self.made.push(d.to_path_buf());
+        }
+        Ok(())
+    }
+
+    /// A temporary name beside `path`, short whatever its own length.
+    fn temporary_beside(&self, path: &Path) -> PathBuf {
+        path.with_file_name(format!(".struck-{}-{}.part", std::process::id(), self.files.len()))
+    }
+
     /// Have `write_to` write a temporary file beside `path` and stage it.
     fn stage(&mut self, path: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            fs::create_dir_all(parent)
-                .map_err(|e| Failure::failed(format!("cannot create {}: {e}", parent.display())))?;
+        check_destination(path, &self.inputs)?;
+        if self.files.iter().any(|(_, d)| d == path || identity(d).is_some_and(|id| identity(path) == Some(id))) {
+            return Err(Failure::bad_input(format!("{}: named for two outputs", shown(path))));
         }
-        let temporary = temporary_beside(path);
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            self.make_folders(parent)?;
+        }
+        let temporary = self.temporary_beside(path);
         match write_to(&temporary) {
             Ok(()) => {
                 self.files.push((temporary, path.to_path_buf()));
@@ -34,7 +110,7 @@ impl Staged {
             }
             Err(e) => {
                 let _ = fs::remove_file(&temporary);
-                Err(Failure::failed(format!("cannot write {}: {e}", path.display())))
+                Err(Failure::failed(format!("cannot write {}: {e}", shown(path))))
             }
         }
     }
@@ -84,26 +160,63 @@ impl Staged {
         })
     }
 
-    /// Put every staged file in place.
+    /// Put every staged file in place, all or none: what stood at a
+    /// destination is set aside first and restored if any file fails.
     pub fn commit(mut self) -> Result<(), Failure> {
         let files = std::mem::take(&mut self.files);
-        for (i, (temporary, path)) in files.iter().enumerate() {
-            if let Err(e) = fs::rename(temporary, path) {
-                for (t, _) in &files[i..] {
-                    let _ = fs::remove_file(t);
+        // Set aside what the files replace.
+        let mut aside: Vec<(PathBuf, PathBuf)> = Vec::new();
+        let mut placed: Vec<&Path> = Vec::new();
+        let result = (|| {
+            for (i, (_, path)) in files.iter().enumerate() {
+                check_destination(path, &self.inputs)?;
+                if fs::symlink_metadata(path).is_ok() {
+                    let old = path.with_file_name(format!(".struck-{}-{i}.old", std::process::id()));
+                    fs::rename(path, &old).map_err(|e| Failure::failed(format!("cannot replace {}: {e}", shown(path))))?;
+                    aside.push((old, path.clone()));
                 }
-                return Err(Failure::failed(format!("cannot write {}: {e}", path.display())));
+            }
+            for (temporary, path) in &files {
+                fs::rename(temporary, path).map_err(|e| Failure::failed(format!("cannot write {}: {e}", shown(path))))?;
+                placed.push(path);
+            }
+            Ok(())
+        })();
+        match result {
+            Ok(()) => {
+                for (old, _) in &aside {
+                    let _ = fs::remove_file(old);
+                }
+                self.committed = true;
+                Ok(())
+            }
+            Err(e) => {
+                for path in placed {
+                    let _ = fs::remove_file(path);
+                }
+                for (old, path) in aside.iter().rev() {
+                    let _ = fs::rename(old, path);
+                }
+                for (temporary, _) in &files {
+                    let _ = fs::remove_file(temporary);
+                }
+                Err(e)
             }
         }
-        Ok(())
     }
 }
 
 impl Drop for Staged {
-    /// Files not committed (an error came first) are removed.
+    /// Files not committed (an error came first) are removed, and the folders
+    /// made for them if they are empty.
     fn drop(&mut self) {
         for (temporary, _) in &self.files {
             let _ = fs::remove_file(temporary);
+        }
+        if !self.committed {
+            for dir in self.made.iter().rev() {
+                let _ = fs::remove_dir(dir);
+            }
         }
     }
 }

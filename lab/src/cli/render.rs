@@ -13,7 +13,6 @@
 //! flags (`--a4`, `--temperament`, `--stretch`, `--scl`, `--kbm`) override the
 //! preset's tuning field by field.
 
-use std::fs;
 use std::io::{self, IsTerminal};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -124,14 +123,11 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         None => preset.instrument.unwrap_or_default(),
     };
 
-    let shown = args.song.display();
-    let bytes = fs::read(&args.song).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
+    let shown = super::shown(&args.song);
+    let bytes = super::input::read(&args.song, super::input::MAX_SONG_BYTES)?;
     let options = ReadOptions { include_channel_10: args.include_channel_10 };
     let song =
         midi_file::read(&bytes, sample_rate_hz, options).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
-    if same_file(&args.song, &args.out) {
-        return Err(Failure::bad_input(format!("--out: {} is the song itself", args.out.display())));
-    }
     let keys = kind.key_range();
     let playable: usize = keys.clone().map(|k| song.notes_per_key[usize::from(k)]).sum();
     let notes = song.note_count();
@@ -205,7 +201,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     };
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
-    let mut staged = Staged::default();
+    let inputs: Vec<&Path> =
+        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()].into_iter().flatten().collect();
+    let mut staged = Staged::reading(&inputs);
     let written = staged.write(&args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
         let mut done = 0u64;
@@ -340,13 +338,6 @@ fn check_block_size(n: i64) -> Result<usize, Failure> {
 }
 
 /// Whether two paths name the same existing file.
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (fs::canonicalize(a), fs::canonicalize(b)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
-}
-
 /// The preset's tuning with the tuning flags laid over it, checked.
 fn tuning(args: &RenderArgs, preset: &TuningSettings) -> Result<TuningSettings, Failure> {
     let mut tuning = preset.clone();

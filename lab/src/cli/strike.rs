@@ -2,6 +2,7 @@
 
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::strike::{self, LabRun};
 
@@ -34,26 +35,90 @@ pub struct StrikeArgs {
 
 /// Peak level of a normalised WAV: -1 dBFS.
 const NORMALISED_PEAK: f64 = 0.891_250_938;
+/// Largest gain from newtons to a WAV's full scale, dB either way (a float
+/// WAV holds 1e38: 760 dB over 1 N would fill it with infinities).
+const MAX_WAV_GAIN_DB: f64 = 200.0;
+/// Bytes a row of trace.csv takes at most: five numbers in shortest form.
+const CSV_BYTES_PER_ROW: u64 = 5 * 24 + 1;
+/// Set by a stop signal (Ctrl-C, SIGTERM).
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Exit status after a stop signal (128 + SIGINT, as shells report it).
+const EXIT_INTERRUPTED: u8 = 130;
+
+fn interrupted() -> Failure {
+    Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() }
+}
+
+fn stop_if_interrupted() -> Result<(), Failure> {
+    if INTERRUPTED.load(Ordering::Relaxed) { Err(interrupted()) } else { Ok(()) }
+}
+
+/// The dotted name of the first null in `value` (where a non-finite number
+/// was serialised), None if there is none.
+fn null_field(value: &serde_json::Value, at: &str) -> Option<String> {
+    let join = |key: &str| if at.is_empty() { key.to_string() } else { format!("{at}.{key}") };
+    match value {
+        serde_json::Value::Null => Some(at.to_string()),
+        serde_json::Value::Object(map) => map.iter().find_map(|(k, v)| null_field(v, &join(k))),
+        serde_json::Value::Array(items) => items.iter().enumerate().find_map(|(i, v)| null_field(v, &format!("{at}[{i}]"))),
+        _ => None,
+    }
+}
+
+/// A hammer cannot leave the string faster than it came: a rebound above the
+/// strike speed means a contact too stiff for f64 and the time step to
+/// resolve, and its figures would be garbage.
+fn check_energy(case: &strike::StrikeCase, result: &LabRun) -> Result<(), String> {
+    let (strike::ExciterSpec::Hammer(h), Some(rebound)) = (&case.exciter, result.metrics.rebound_speed_m_s) else {
+        return Ok(());
+    };
+    if rebound > h.speed_m_s * (1.0 + 1e-6) {
+        return Err(format!(
+            "exciter.stiffness: the hammer rebounds at {rebound:.3e} m/s from {:.3} m/s, more energy than it brought \
+             (a contact this stiff is beyond what the step resolves)",
+            h.speed_m_s
+        ));
+    }
+    Ok(())
+}
 
 pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
-    let shown = args.case.display();
-    let text =
-        std::fs::read_to_string(&args.case).map_err(|e| Failure::bad_input(format!("{shown}: cannot read: {e}")))?;
+    let shown = super::shown(&args.case);
+    let text = super::input::read_text(&args.case, super::input::MAX_CASE_BYTES)?;
     let case = strike::parse_case(&text, &args.sets).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
     if let Some(gain) = args.wav_gain_db
-        && !gain.is_finite()
+        && !(gain.is_finite() && gain.abs() <= MAX_WAV_GAIN_DB)
     {
-        return Err(Failure::bad_input(format!("--wav-gain-db: must be a finite number of dB (got {gain})")));
+        return Err(Failure::bad_input(format!(
+            "--wav-gain-db: must lie between -{MAX_WAV_GAIN_DB} and {MAX_WAV_GAIN_DB} dB (got {gain})"
+        )));
     }
-    let result = strike::run(&case);
+    // Room for the trace in memory and the files on disk, before starting.
+    let rows = case.sample_count() as u64;
+    let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
+    super::room::check(&format!("{shown} ({rows} samples)"), strike::run::peak_bytes(&case), disk, &args.out)?;
+    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
+    let result = strike::run::run_stoppable(&case, &INTERRUPTED).ok_or_else(interrupted)?;
     check_finite(&result)?;
+    check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
 
-    let mut staged = Staged::default();
+    let mut staged = Staged::reading(&[args.case.as_path()]);
     let metrics_path = args.out.join("metrics.json");
     let trace_path = args.out.join("trace.csv");
-    let metrics = serde_json::to_string_pretty(&result.metrics).expect("metrics serialise");
+    let metrics = serde_json::to_value(&result.metrics).expect("metrics serialise");
+    if let Some(field) = null_field(&metrics, "") {
+        return Err(Failure::bad_input(format!(
+            "{shown}: the run's {field} is not a finite number (the case leaves f64's range); nothing was written"
+        )));
+    }
+    let metrics = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
     staged.write(&metrics_path, |w| writeln!(w, "{metrics}"))?;
-    staged.write(&trace_path, |w| write_trace(w, &result))?;
+    stop_if_interrupted()?;
+    staged.write(&trace_path, |w| {
+        write_trace(w, &result)?;
+        stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
+    })
+    .map_err(|e| if INTERRUPTED.load(Ordering::Relaxed) { interrupted() } else { e })?;
     let mut wav_note = String::new();
     if let Some(wav) = &args.wav {
         let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -63,7 +128,15 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             None => 1.0,
         };
         let samples: Vec<f32> = result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32).collect();
+        if !samples.iter().all(|s| s.is_finite()) {
+            return Err(Failure::bad_input(format!(
+                "--wav-gain-db {:.1}: the loudest sample, {:.3e} N, would leave a float WAV's range",
+                20.0 * gain.log10(),
+                peak
+            )));
+        }
         staged.write_wav(wav, case.sample_rate_hz, &samples)?;
+        stop_if_interrupted()?;
         wav_note = format!(", {} (gain {:+.1} dB re 1 N)", wav.display(), 20.0 * gain.log10());
     }
     staged.commit()?;

@@ -46,6 +46,11 @@ pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
             let _ = std::io::stdout().flush();
             Some(run(args))
         }
+        Some(word) if !word.starts_with('-') => {
+            let names: Vec<&str> = cli.get_subcommands().map(|s| s.get_name()).collect();
+            eprintln!("struck: no command {word:?} (the commands: {}; none plays live)", names.join(", "));
+            Some(ExitCode::from(2))
+        }
         _ => Some(run(args)),
     }
 }
@@ -53,6 +58,10 @@ pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
 /// Probe the audio backend the options ask for, then hand over to nice-plug's standalone.
 pub fn run(args: Vec<String>) -> ExitCode {
     let wanted = Wanted::scan(&args[1.min(args.len())..]);
+    if let Some(Err(reason)) = wanted.as_ref().map(Wanted::check) {
+        eprintln!("struck: {reason}");
+        return ExitCode::from(2);
+    }
     if let Some(wanted) = wanted
         && let Err(reasons) = probe(&wanted)
     {
@@ -130,6 +139,35 @@ impl Wanted {
             i += 1;
         }
         Some(wanted)
+    }
+}
+
+/// Periods the standalone may run in, samples: a period of 0 would spin a core
+/// and a huge one take gigabytes before the first sound.
+const PERIODS: std::ops::RangeInclusive<u32> = 16..=8192;
+/// Sample rates it may run at, Hz (those the instrument is built for).
+const SAMPLE_RATES_HZ: std::ops::RangeInclusive<u32> = 22_050..=192_000;
+
+impl Wanted {
+    /// Refuse a period or sample rate out of range, naming it.
+    fn check(&self) -> Result<(), String> {
+        if !PERIODS.contains(&self.period) {
+            return Err(format!(
+                "--period-size {}: must lie between {} and {} samples",
+                self.period,
+                PERIODS.start(),
+                PERIODS.end()
+            ));
+        }
+        if !SAMPLE_RATES_HZ.contains(&self.sample_rate_hz) {
+            return Err(format!(
+                "--sample-rate {}: must lie between {} and {} Hz",
+                self.sample_rate_hz,
+                SAMPLE_RATES_HZ.start(),
+                SAMPLE_RATES_HZ.end()
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -290,6 +328,15 @@ mod tests {
         assert_eq!(w.output_device.as_deref(), Some("null"));
         assert_eq!(scan(&[]).unwrap().backend, Backend::Auto);
         assert_eq!(scan(&["-bdummy"]).unwrap().backend, Backend::Dummy);
+    }
+
+    #[test]
+    fn a_period_or_rate_the_machine_cannot_run_is_refused() {
+        assert!(scan(&["-b", "dummy", "--period-size", "512"]).unwrap().check().is_ok());
+        for args in [["--period-size", "0"], ["--period-size", "4294967295"], ["--sample-rate", "8000"]] {
+            let e = scan(&args).unwrap().check().unwrap_err();
+            assert!(e.starts_with(args[0]) && !e.contains('\n'), "{e}");
+        }
     }
 
     #[test]

@@ -1,0 +1,140 @@
+//! What the command line does with input it must not trust and outputs it must
+//! not spoil (the hardening issue): every refusal is one line with exit status
+//! 2, nothing the user gave is overwritten, nothing is left half-written.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+use std::time::{Duration, Instant};
+
+use struck_tests::{SANTOOR_CASE, midi_gen, stderr, struck};
+
+/// A test MIDI file.
+fn midi(name: &str) -> PathBuf {
+    midi_gen::test_dir().join(name)
+}
+
+fn text(path: &Path) -> String {
+    path.to_str().unwrap().to_string()
+}
+
+/// Refused: status 2 and one line on stderr that contains `words`.
+fn refused(out: &Output, words: &str) {
+    let message = stderr(out);
+    assert_eq!(out.status.code(), Some(2), "{message}");
+    assert_eq!(message.lines().count(), 1, "one line: {message:?}");
+    assert!(message.contains(words), "{message:?} should say {words:?}");
+}
+
+#[test]
+fn devices_and_fifos_are_refused_at_once_for_every_file_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let song = midi("a4.mid");
+    let out = text(&dir.path().join("x.wav"));
+    let started = Instant::now();
+    refused(&struck(&["render", "/dev/zero", "--out", &out]), "/dev/zero: not a regular file (a device)");
+    refused(&struck(&["render", &text(&song), "--out", &out, "--preset", "/dev/urandom"]), "not a regular file");
+    refused(&struck(&["render", &text(&song), "--out", &out, "--scl", "/dev/zero"]), "not a regular file");
+    refused(&struck(&["strike", "/dev/zero", "--out", &text(dir.path())]), "not a regular file");
+    refused(&struck(&["render", &text(dir.path()), "--out", &out]), "(a directory)");
+    let fifo = dir.path().join("pipe");
+    if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+        refused(&struck(&["strike", &text(&fifo), "--out", &text(dir.path())]), "(a FIFO)");
+        refused(&struck(&["render", &text(&fifo), "--out", &out]), "(a FIFO)");
+    }
+    assert!(started.elapsed() < Duration::from_secs(30), "nothing waited");
+    assert!(!dir.path().join("x.wav").exists());
+}
+
+#[test]
+fn a_file_larger_than_its_kind_may_be_is_refused_while_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("huge.json");
+    std::fs::write(&case, vec![b' '; (1 << 20) + 1]).unwrap();
+    refused(&struck(&["strike", &text(&case), "--out", &text(&dir.path().join("o"))]), "larger than the 1 MB");
+}
+
+#[test]
+fn no_output_may_be_one_of_the_inputs_however_it_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let out = dir.path().join("out");
+    // --wav naming the case; the case inside --out as metrics.json; --wav naming metrics.json.
+    refused(&struck(&["strike", &text(&case), "--out", &text(&out), "--wav", &text(&case)]), "one of the inputs");
+    std::fs::create_dir(&out).unwrap();
+    let inside = out.join("metrics.json");
+    std::fs::write(&inside, SANTOOR_CASE).unwrap();
+    refused(&struck(&["strike", &text(&inside), "--out", &text(&out)]), "one of the inputs");
+    std::fs::remove_file(&inside).unwrap();
+    refused(&struck(&["strike", &text(&case), "--out", &text(&out), "--wav", &text(&inside)]), "named for two outputs");
+    // A render's preset and scale, also under another name.
+    let preset = dir.path().join("p.json");
+    std::fs::write(&preset, r#"{"name": "Mine"}"#).unwrap();
+    let song = text(&midi("a4.mid"));
+    refused(&struck(&["render", &song, "--out", &text(&preset), "--preset", &text(&preset)]), "one of the inputs");
+    let scale = dir.path().join("s.scl");
+    std::fs::write(&scale, "! s\nfifths\n1\n2/1\n").unwrap();
+    let other_name = dir.path().join("out").join("..").join("s.scl");
+    refused(&struck(&["render", &song, "--out", &text(&other_name), "--scl", &text(&scale)]), "one of the inputs");
+    refused(&struck(&["animate", &text(&case), "--out", &text(&case)]), "one of the inputs");
+    assert_eq!(std::fs::read_to_string(&case).unwrap(), SANTOOR_CASE);
+    assert_eq!(std::fs::read_to_string(&preset).unwrap(), r#"{"name": "Mine"}"#);
+    assert_eq!(std::fs::read_to_string(&scale).unwrap(), "! s\nfifths\n1\n2/1\n");
+    assert!(std::fs::read_dir(&out).unwrap().next().is_none(), "nothing was written");
+}
+
+#[test]
+fn a_device_or_folder_is_never_replaced_and_folders_made_for_a_failure_go() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    refused(&struck(&["render", &text(&midi("a4.mid")), "--out", "/dev/null"]), "is not a regular file");
+    assert!(!Path::new("/dev/null").metadata().unwrap().file_type().is_file());
+    let deep = dir.path().join("new").join("deeper");
+    refused(&struck(&["strike", &text(&case), "--out", &text(&deep), "--wav", "/dev/null"]), "is not a regular file");
+    assert!(!dir.path().join("new").exists(), "the folders made for it are gone");
+    refused(&struck(&["strike", &text(&case), "--out", &text(dir.path()), "--wav", &text(dir.path())]), "is a directory");
+}
+
+#[test]
+fn physics_out_of_range_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let out = text(&dir.path().join("o"));
+    refused(&struck(&["strike", &text(&case), "--out", &out, "--set", "exciter.stiffness=1e22"]), "exciter.stiffness");
+    refused(&struck(&["strike", &text(&case), "--out", &out, "--wav", "w.wav", "--wav-gain-db", "800"]), "--wav-gain-db");
+    assert!(!dir.path().join("o").exists());
+}
+
+#[test]
+fn argument_errors_and_unknown_commands_take_one_line() {
+    refused(&struck(&["render"]), "--out");
+    refused(&struck(&["render", "a.mid", "--out", "b.wav", "--block-size", "many"]), "--block-size");
+    refused(&struck(&["no-such-command"]), "no command");
+    refused(&struck(&["-b", "dummy", "--period-size", "0"]), "--period-size 0");
+    refused(&struck(&["-b", "dummy", "--period-size", "4294967295"]), "--period-size");
+}
+
+#[test]
+fn a_files_own_escape_sequences_are_shown_not_sent_to_the_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case\u{1b}[31m.json");
+    std::fs::write(&case, "{\"name\": 3, \"sample_rate_hz\u{1b}[2J\": 1}").unwrap();
+    let out = struck(&["strike", &text(&case), "--out", &text(&dir.path().join("o"))]);
+    let message = stderr(&out);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!message.contains('\u{1b}'), "{message:?}");
+    assert!(message.contains("\\u{1b}"), "{message:?}");
+}
+
+#[test]
+fn a_long_legal_output_name_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = format!("{}.wav", "a".repeat(250));
+    let out = dir.path().join(&name);
+    let run = struck(&["render", &text(&midi("a4.mid")), "--out", &text(&out), "--tail-s", "0", "-q"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(out.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
+}

@@ -19,6 +19,7 @@
 //! and take its time.
 
 pub mod analysis;
+pub mod cleanup;
 pub mod cli;
 pub mod demo_page;
 pub mod figures;

@@ -281,7 +281,17 @@ fn read_track(
         tick += u64::from(event.delta.as_int());
         match event.kind {
             TrackEventKind::Meta(MetaMessage::EndOfTrack) => break,
+            TrackEventKind::Meta(MetaMessage::Tempo(us)) if us.as_int() == 0 => {
+                return Err(MidiError::Malformed(format!("track {number}: a Set Tempo event of 0 microseconds a quarter note")));
+            }
             TrackEventKind::Meta(MetaMessage::Tempo(us)) => items.push((tick, Item::Tempo(u64::from(us.as_int())))),
+            // midly reads a Set Tempo of fewer than its 3 bytes as an unknown meta event.
+            TrackEventKind::Meta(MetaMessage::Unknown(0x51, data)) => {
+                return Err(MidiError::Malformed(format!(
+                    "track {number}: a Set Tempo event of {} bytes (it takes 3)",
+                    data.len()
+                )));
+            }
             TrackEventKind::Midi { channel, message } => {
                 let is_note_on = matches!(message, MidiMessage::NoteOn { vel, .. } if vel.as_int() > 0);
                 if channel.as_int() == DRUM_CHANNEL && !options.include_channel_10 {
@@ -367,6 +377,29 @@ impl Clock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A format-0 file whose one track is `track`'s raw bytes.
+    fn raw(track: &[u8]) -> Vec<u8> {
+        let mut bytes = b"MThd\0\0\0\x06\0\0\0\x01\0\x60MTrk".to_vec();
+        bytes.extend_from_slice(&(track.len() as u32).to_be_bytes());
+        bytes.extend_from_slice(track);
+        bytes
+    }
+
+    #[test]
+    fn a_sysex_running_past_its_track_and_a_short_tempo_are_refused() {
+        let options = ReadOptions::default();
+        // A note, then a SysEx that says 50 bytes and has 3.
+        let sysex = raw(&[0, 0x90, 60, 100, 10, 0xF0, 50, 1, 2, 3]);
+        let e = read(&sysex, 48_000, options).unwrap_err().to_string();
+        assert!(e.starts_with("malformed MIDI: track 1"), "{e}");
+        // A Set Tempo of 2 bytes.
+        let tempo = raw(&[0, 0xFF, 0x51, 2, 7, 0xA1, 0, 0x90, 60, 100, 0x60, 0x80, 60, 0, 0, 0xFF, 0x2F, 0]);
+        let e = read(&tempo, 48_000, options).unwrap_err().to_string();
+        assert!(e.contains("a Set Tempo event of 2 bytes"), "{e}");
+        let zero = raw(&[0, 0xFF, 0x51, 3, 0, 0, 0, 0, 0x90, 60, 100, 0x60, 0x80, 60, 0, 0, 0xFF, 0x2F, 0]);
+        assert!(read(&zero, 48_000, options).unwrap_err().to_string().contains("0 microseconds"));
+    }
 
     /// A format-0 file of `(delta ticks, channel, message)`.
     fn smf(events: &[(u32, u8, midly::MidiMessage)]) -> Vec<u8> {

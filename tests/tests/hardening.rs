@@ -138,3 +138,55 @@ fn a_long_legal_output_name_is_written() {
     assert!(out.exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
 }
+
+#[test]
+fn a_stop_signal_during_a_strike_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let out = dir.path().join("out").join("deeper");
+    let child = std::process::Command::new(struck_tests::struck_binary())
+        .args(["strike", &text(&case), "--out", &text(&out), "--set", "duration_s=60", "--set", "sample_rate_hz=384000"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let sent = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert!(sent.success());
+    let done = child.wait_with_output().unwrap();
+    assert_eq!(done.status.code(), Some(130), "{}", stderr(&done));
+    assert!(stderr(&done).contains("interrupted; nothing was written"), "{}", stderr(&done));
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, ["case.json"], "only the case is left");
+}
+
+#[test]
+fn a_strike_chart_takes_a_bounded_number_of_strikes() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let speeds = vec!["1"; 100].join(",");
+    let out = text(&dir.path().join("charts"));
+    refused(&struck(&["chart", "strike", &text(&case), "--out", &out, "--speeds", &speeds]), "at most 64");
+}
+
+#[test]
+fn metrics_never_hold_a_null() {
+    // A tangent has no rebound and a pluck no contact force: those are left out.
+    let dir = tempfile::tempdir().unwrap();
+    for (name, exciter) in [
+        ("tangent", serde_json::json!({"kind": "tangent", "speed_m_s": 0.5, "displacement_m": 0.001})),
+        ("pluck", serde_json::json!({"kind": "pluck", "displacement_m": 0.001, "position": 0.2})),
+    ] {
+        let mut case: serde_json::Value = serde_json::from_str(SANTOOR_CASE).unwrap();
+        case["exciter"] = exciter;
+        case["duration_s"] = serde_json::json!(0.2);
+        let path = dir.path().join(format!("{name}.json"));
+        std::fs::write(&path, case.to_string()).unwrap();
+        let out = dir.path().join(name);
+        let run = struck(&["strike", &text(&path), "--out", &text(&out), "-q"]);
+        assert!(run.status.success(), "{name}: {}", stderr(&run));
+        let metrics = std::fs::read_to_string(out.join("metrics.json")).unwrap();
+        assert!(!metrics.contains("null"), "{name}: {metrics}");
+    }
+}

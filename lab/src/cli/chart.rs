@@ -14,6 +14,8 @@ use crate::figures::{self, Drawn};
 
 /// Largest grid side accepted.
 pub const MAX_GRID: usize = 512;
+/// Most strikes one strike chart draws (cases times speeds): each is a line.
+pub const MAX_STRIKES: usize = 64;
 
 #[derive(Args)]
 pub struct ChartArgs {
@@ -201,6 +203,14 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
             figures::stringing(kind, out, "stringing").map_err(failed)?
         }
         Chart::Strike(s) => {
+            let runs = s.cases.len() * s.speeds.len().max(1);
+            if runs > MAX_STRIKES {
+                return Err(Failure::bad_input(format!(
+                    "--speeds: {} cases at {} speeds make {runs} strikes on one chart (at most {MAX_STRIKES})",
+                    s.cases.len(),
+                    s.speeds.len()
+                )));
+            }
             let mut cases = Vec::new();
             for path in &s.cases {
                 let case = read_case(path, &s.sets)?;

@@ -131,6 +131,14 @@ pub fn run() -> ExitCode {
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
+    crate::cleanup::install(match &cli.command {
+        Command::Strike(_) => "struck strike",
+        Command::Bench(_) => "struck bench",
+        Command::Render(_) => "struck render",
+        Command::Chart(_) => "struck chart",
+        Command::Animate(_) => "struck animate",
+        Command::Demo(_) => "struck demo",
+    });
     let result = match cli.command {
         Command::Strike(args) => strike::run(&args).map_err(|e| ("struck strike", e)),
         Command::Bench(args) => bench::run(&args).map_err(|e| ("struck bench", e)),

@@ -13,6 +13,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::failure::{Failure, shown};
+use crate::cleanup;
 
 /// A file's identity on its file system (the same file under any name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,6 +84,7 @@ impl Staged {
         let missing: Vec<&Path> = dir.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).collect();
         for d in missing.into_iter().rev() {
             fs::create_dir(d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(d))))?;
+            cleanup::track_dir(d);
             self.made.push(d.to_path_buf());
         }
         Ok(())
@@ -103,6 +105,7 @@ impl Staged {
             self.make_folders(parent)?;
         }
         let temporary = self.temporary_beside(path);
+        cleanup::track(&temporary);
         match write_to(&temporary) {
             Ok(()) => {
                 self.files.push((temporary, path.to_path_buf()));
@@ -110,6 +113,7 @@ impl Staged {
             }
             Err(e) => {
                 let _ = fs::remove_file(&temporary);
+                cleanup::forget(&temporary);
                 Err(Failure::failed(format!("cannot write {}: {e}", shown(path))))
             }
         }
@@ -163,6 +167,10 @@ impl Staged {
     /// Put every staged file in place, all or none: what stood at a
     /// destination is set aside first and restored if any file fails.
     pub fn commit(mut self) -> Result<(), Failure> {
+        cleanup::holding(|| self.commit_held())
+    }
+
+    fn commit_held(&mut self) -> Result<(), Failure> {
         let files = std::mem::take(&mut self.files);
         // Set aside what the files replace.
         let mut aside: Vec<(PathBuf, PathBuf)> = Vec::new();
@@ -188,6 +196,7 @@ impl Staged {
                     let _ = fs::remove_file(old);
                 }
                 self.committed = true;
+                self.forget_all(&files);
                 Ok(())
             }
             Err(e) => {
@@ -200,8 +209,20 @@ impl Staged {
                 for (temporary, _) in &files {
                     let _ = fs::remove_file(temporary);
                 }
+                self.forget_all(&files);
                 Err(e)
             }
+        }
+    }
+
+    /// Take the files (put in place or removed) and the folders off the
+    /// signal handler's lists; the lists are held by the caller.
+    fn forget_all(&self, files: &[(PathBuf, PathBuf)]) {
+        for (temporary, _) in files {
+            cleanup::forget_held(temporary);
+        }
+        for dir in &self.made {
+            cleanup::forget_held(dir);
         }
     }
 }
@@ -212,10 +233,12 @@ impl Drop for Staged {
     fn drop(&mut self) {
         for (temporary, _) in &self.files {
             let _ = fs::remove_file(temporary);
+            cleanup::forget(temporary);
         }
         if !self.committed {
             for dir in self.made.iter().rev() {
                 let _ = fs::remove_dir(dir);
+                cleanup::forget(dir);
             }
         }
     }

@@ -15,7 +15,6 @@
 
 use std::io::{self, IsTerminal};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -27,6 +26,7 @@ use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
 use super::output::Staged;
+use crate::cleanup::EXIT_INTERRUPTED;
 use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
 
@@ -38,10 +38,6 @@ pub const MAX_TAIL_S: f64 = 600.0;
 pub const MAX_BLOCK_SIZE: usize = 8192;
 /// A WAV's sizes are 32-bit: the data may not exceed this many bytes.
 const MAX_WAV_DATA_BYTES: u64 = u32::MAX as u64 - 64;
-/// Set by a stop signal while rendering.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-/// Exit status after a stop signal (128 + SIGINT, as shells report it).
-const EXIT_INTERRUPTED: u8 = 130;
 
 /// Samples between progress-bar updates.
 const PROGRESS_EVERY: u64 = 1 << 15;
@@ -168,7 +164,6 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
     // Ctrl-C (or SIGTERM) stops after the instrument is built or between
     // blocks, so nothing (or only the partial file, then removed) is written.
-    let _ = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::Relaxed));
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
         (Some(path), _) => {
             Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
@@ -176,7 +171,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         (None, true) => Failure::bad_input(format!("the {kind} cannot be built in this tuning: {e}")),
         (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
     })?;
-    if INTERRUPTED.load(Ordering::Relaxed) {
+    if crate::cleanup::interrupted() {
         return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
     }
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
@@ -208,7 +203,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
         let mut done = 0u64;
         render(&mut synth, &song.events, total, block_size, |left, right| {
-            if INTERRUPTED.load(Ordering::Relaxed) {
+            if crate::cleanup::interrupted() {
                 return Err(io::Error::other("interrupted"));
             }
             for (&l, &r) in left.iter().zip(right) {
@@ -233,7 +228,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     if let Some(bar) = &progress {
         bar.finish_and_clear();
     }
-    if INTERRUPTED.load(Ordering::Relaxed) {
+    if crate::cleanup::interrupted() {
         return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
     }
     if let Some(sample) = non_finite {

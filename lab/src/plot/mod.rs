@@ -200,11 +200,14 @@ fn write_atomically(
         std::process::id(),
         SERIAL.fetch_add(1, Ordering::Relaxed)
     ));
+    crate::cleanup::track(&temporary);
     let result = fill(&temporary).and_then(|()| fs::rename(&temporary, path).map_err(|e| e.to_string()));
-    result.map_err(|reason| {
+    let result = result.map_err(|reason| {
         let _ = fs::remove_file(&temporary);
         PlotError::write(path, reason)
-    })
+    });
+    crate::cleanup::forget(&temporary);
+    result
 }
 
 /// Write `text` to `path` atomically.

@@ -1,0 +1,98 @@
+//! What a stop signal (Ctrl-C, SIGTERM, SIGHUP) leaves behind: nothing.
+//!
+//! Temporary files and the folders made for them are listed here while they
+//! exist. On a signal the flag [`interrupted`] is raised; a command that
+//! checks it (a render between blocks, a strike every few thousand samples)
+//! stops and cleans up on its own. One that does not is stopped a second
+//! later: whatever is listed is removed and the process exits with status 130.
+//! Putting a set of files in place holds the list ([`holding`]), so a signal
+//! never lands between two of their renames.
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// Exit status after a stop signal (128 + SIGINT, as shells report it).
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+struct Listed {
+    files: Vec<PathBuf>,
+    dirs: Vec<PathBuf>,
+}
+
+static LISTED: Mutex<Listed> = Mutex::new(Listed { files: Vec::new(), dirs: Vec::new() });
+
+fn listed() -> std::sync::MutexGuard<'static, Listed> {
+    LISTED.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Whether a stop signal came.
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::Relaxed)
+}
+
+/// The flag itself, for work that polls it.
+pub fn flag() -> &'static AtomicBool {
+    &INTERRUPTED
+}
+
+/// List a temporary file (removed on a signal until [`forget`]).
+pub fn track(path: &Path) {
+    listed().files.push(path.to_path_buf());
+}
+
+/// List a folder made for outputs (removed on a signal if it is empty).
+pub fn track_dir(path: &Path) {
+    listed().dirs.push(path.to_path_buf());
+}
+
+/// Take `path` off the lists (put in place, or removed by its owner).
+pub fn forget(path: &Path) {
+    forget_from(&mut listed(), path);
+}
+
+fn forget_from(l: &mut Listed, path: &Path) {
+    l.files.retain(|p| p != path);
+    l.dirs.retain(|p| p != path);
+}
+
+thread_local! {
+    /// The lists held by this thread's [`holding`].
+    static HELD: std::cell::RefCell<Option<std::sync::MutexGuard<'static, Listed>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// [`forget`] from inside [`holding`] (the lists are already held).
+pub fn forget_held(path: &Path) {
+    HELD.with(|held| match held.borrow_mut().as_mut() {
+        Some(l) => forget_from(l, path),
+        None => forget(path),
+    });
+}
+
+/// Run `work` with the lists held: a signal waits until it is done.
+pub fn holding<R>(work: impl FnOnce() -> R) -> R {
+    HELD.with(|held| *held.borrow_mut() = Some(listed()));
+    let result = work();
+    HELD.with(|held| *held.borrow_mut() = None);
+    result
+}
+
+/// Handle stop signals for `command` (printed in the last line).
+pub fn install(command: &'static str) {
+    let _ = ctrlc::set_handler(move || {
+        INTERRUPTED.store(true, Ordering::Relaxed);
+        std::thread::sleep(Duration::from_secs(1));
+        let l = listed();
+        for file in &l.files {
+            let _ = std::fs::remove_file(file);
+        }
+        for dir in l.dirs.iter().rev() {
+            let _ = std::fs::remove_dir(dir);
+        }
+        eprintln!("{command}: interrupted; nothing was written");
+        std::process::exit(i32::from(EXIT_INTERRUPTED));
+    });
+}

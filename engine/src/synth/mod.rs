@@ -594,6 +594,9 @@ impl Synth {
 
     fn handle(&mut self, event: Event) {
         match event {
+            // A velocity that is not a number is no touch at all (it would make every
+            // sample of the key NaN); an infinite one is held to the range, as any other.
+            Event::NoteOn { velocity, .. } if velocity.is_nan() => {}
             Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key, 0.0),
             Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
             Event::NoteOff { key, velocity } => self.note_off(key, velocity),
@@ -618,11 +621,15 @@ impl Synth {
                     k.set_pressure(pressure as f64);
                 }
             }
-            Event::ModWheel(_) | Event::Pressure { .. } | Event::UnaCorda(_) | Event::Sustain(_) => {}
-            Event::PitchBend(v) => {
+            Event::PitchBend(v) if !v.is_nan() => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
             }
+            Event::ModWheel(_)
+            | Event::Pressure { .. }
+            | Event::UnaCorda(_)
+            | Event::Sustain(_)
+            | Event::PitchBend(_) => {}
             Event::AllNotesOff => {
                 let sustain = self.sustain;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.down()) {

@@ -773,9 +773,12 @@ impl Synth {
             }
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
         }
-        let (glide, r) = (self.glide, self.dc_r);
+        let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
         for t in 0..n {
-            self.gain += (self.controls.output_gain - self.gain) * glide;
+            // The glide arrives once within 1e-9 of its target (-180 dB): gliding on
+            // toward silence for ever, the gain would make subnormal samples (and
+            // become an f64 subnormal itself).
+            self.gain = if (to - self.gain).abs() < 1e-9 { to } else { self.gain + (to - self.gain) * glide };
             let l = self.dc[0].run(mix_l[t], r) * self.gain;
             let rr = self.dc[1].run(mix_r[t], r) * self.gain;
             left[t] = l as f32;

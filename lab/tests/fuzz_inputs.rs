@@ -266,3 +266,14 @@ fn a_case_field_name_with_a_line_break_is_refused_in_one_line() {
     let message = parse_case(seed, &["string.q\u{1b}=1".into()]).expect_err("an unknown field").to_string();
     assert!(!message.contains(char::is_control), "{message:?}");
 }
+
+/// Found by the fuzzing above in a debug build (the one `cargo xtask test`
+/// runs; a release build wraps silently): SMPTE timing at -128 frames per
+/// second, the division's high byte 0x80, was negated as an i8, which
+/// overflows, and the reader panicked.
+#[test]
+fn an_smpte_division_of_minus_128_frames_is_refused_in_one_line() {
+    let bytes = b"MThd\0\0\0\x06\0\0\0\x01\x80\x28MTrk\0\0\0\x04\0\xff\x2f\0";
+    let message = midi_file::read(bytes, 48_000, ReadOptions::default()).expect_err("no such frame rate").to_string();
+    assert!(message.contains("128 frames per second"), "{message}");
+}

@@ -56,6 +56,21 @@
 /// a block, and the keys drive the bridge in stretches of at most one.
 pub const CONTROL_BLOCK: usize = 64;
 
+/// `text` with its control characters escaped (a line break as `\n`, an escape
+/// as `\u{1b}`): a message that quotes what a file holds stays one line and
+/// cannot move the terminal's cursor or change its colours.
+pub fn printable(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 pub mod action;
 pub mod body;
 pub(crate) mod damper;

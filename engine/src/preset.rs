@@ -60,14 +60,15 @@ pub struct Preset {
 /// Why a preset was refused, or could not be read or written; one line.
 #[derive(Debug, thiserror::Error)]
 pub enum PresetError {
-    /// The content: names the field and the reason.
-    #[error("{0}")]
+    /// The content: names the field and the reason (what it quotes of the
+    /// text shown with its control characters escaped).
+    #[error("{}", crate::printable(.0))]
     Invalid(String),
     /// A file: names it, then what went wrong.
     #[error("{}: {reason}", path.display())]
     File { path: PathBuf, reason: String },
     /// A name that cannot be a file name.
-    #[error("preset name \"{name}\": {reason}")]
+    #[error("preset name \"{}\": {reason}", crate::printable(.name))]
     Name { name: String, reason: String },
 }
 

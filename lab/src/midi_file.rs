@@ -227,7 +227,8 @@ fn read_header(bytes: &[u8]) -> Result<(usize, Timing, &[u8]), MidiError> {
         }
         Timing::Metrical { ticks_per_quarter: u64::from(division) }
     } else {
-        let fps = -((division >> 8) as u8 as i8) as i32;
+        // The high byte is minus the frame rate, in two's complement (-128 is no rate).
+        let fps = -i32::from((division >> 8) as u8 as i8);
         let ticks_per_frame = u64::from(division & 0xff);
         let (fps_num, fps_den) = match fps {
             24 => (24, 1),

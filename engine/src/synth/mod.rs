@@ -594,6 +594,9 @@ impl Synth {
 
     fn handle(&mut self, event: Event) {
         match event {
+            // A velocity that is not a number is no touch at all (it would make every
+            // sample of the key NaN); an infinite one is held to the range, as any other.
+            Event::NoteOn { velocity, .. } if velocity.is_nan() => {}
             Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key, 0.0),
             Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
             Event::NoteOff { key, velocity } => self.note_off(key, velocity),
@@ -618,11 +621,15 @@ impl Synth {
                     k.set_pressure(pressure as f64);
                 }
             }
-            Event::ModWheel(_) | Event::Pressure { .. } | Event::UnaCorda(_) | Event::Sustain(_) => {}
-            Event::PitchBend(v) => {
+            Event::PitchBend(v) if !v.is_nan() => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
             }
+            Event::ModWheel(_)
+            | Event::Pressure { .. }
+            | Event::UnaCorda(_)
+            | Event::Sustain(_)
+            | Event::PitchBend(_) => {}
             Event::AllNotesOff => {
                 let sustain = self.sustain;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.down()) {
@@ -766,9 +773,12 @@ impl Synth {
             }
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
         }
-        let (glide, r) = (self.glide, self.dc_r);
+        let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
         for t in 0..n {
-            self.gain += (self.controls.output_gain - self.gain) * glide;
+            // The glide arrives once within 1e-9 of its target (-180 dB): gliding on
+            // toward silence for ever, the gain would make subnormal samples (and
+            // become an f64 subnormal itself).
+            self.gain = if (to - self.gain).abs() < 1e-9 { to } else { self.gain + (to - self.gain) * glide };
             let l = self.dc[0].run(mix_l[t], r) * self.gain;
             let rr = self.dc[1].run(mix_r[t], r) * self.gain;
             left[t] = l as f32;

@@ -64,12 +64,13 @@ pub struct KeyboardMapping {
     pub map: Vec<Option<usize>>,
 }
 
-/// Why a tuning file was refused: one line naming the line and the reason.
+/// Why a tuning file was refused: one line naming the line and the reason
+/// (what it quotes of the file shown with its control characters escaped).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TuningError {
-    #[error("line {line}: {reason}")]
+    #[error("line {line}: {}", crate::printable(.reason))]
     Line { line: usize, reason: String },
-    #[error("{reason} (the file ends at line {lines})")]
+    #[error("{} (the file ends at line {lines})", crate::printable(.reason))]
     Ended { lines: usize, reason: String },
 }
 

@@ -24,9 +24,10 @@ pub const LAB_CUTOFF_FRACTION: f64 = 0.45;
 /// Largest felt exponent accepted (measured hammers lie between 1.5 and 5).
 pub const MAX_EXPONENT: f64 = 10.0;
 
-/// A refused case: the field and why.
+/// A refused case: the field and why (shown with the control characters of
+/// what they quote from the case escaped).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{field}: {reason}")]
+#[error("{}: {}", struck_engine::printable(.field), struck_engine::printable(.reason))]
 pub struct CaseError {
     pub field: String,
     pub reason: String,

@@ -30,10 +30,7 @@ impl Failure {
     }
 }
 
-/// `text` with every control character written as its escape (\n, \u{1b}).
-pub fn printable(text: &str) -> String {
-    text.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
-}
+pub use struck_engine::printable;
 
 /// A path as a message shows it (printable, see [`printable`]).
 pub fn shown(path: &Path) -> String {

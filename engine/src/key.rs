@@ -537,7 +537,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         if felt {
             self.driven = DRIVEN_BLOCKS;
         }
-        self.culled_last = false;
+        // The last culling's bound still bounds the strings once it holds
+        // the drive too (no rescan needed).
+        self.last_cull.0 += (delta.re.abs() + delta.im.abs()) * f64::from(strings.count_ones());
         for (i, s) in self.strings.iter_mut().enumerate() {
             if strings & (1 << i) == 0 || partial >= s.bank().len() {
                 continue;

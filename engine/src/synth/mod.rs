@@ -727,9 +727,12 @@ impl Synth {
             }
             self.lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
         }
-        if (self.clock / CONTROL_BLOCK as u64).is_multiple_of(SYMPATHY_BLOCKS as u64) {
+        {
+            // Each key's pairs trade once every SYMPATHY_BLOCKS blocks, an
+            // eighth of the keys each block.
+            let phase = ((self.clock / CONTROL_BLOCK as u64) % SYMPATHY_BLOCKS as u64) as usize;
             let current = &mut *self.current;
-            current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE);
+            current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE, phase);
         }
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {

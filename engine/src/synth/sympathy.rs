@@ -77,15 +77,17 @@ struct Slot {
 }
 
 /// The pairs of partials that trade through the body, for each key the pairs
-/// it is in and its partials' slots, and the interval's scratch: each slot's
+/// it is in, every partial's slot, and the scratch of a trade: each slot's
 /// summed phasor and what it takes.
 pub(crate) struct Sympathy {
     pairs: Vec<Pair>,
     by_key: Vec<Vec<u32>>,
     slots: Vec<Slot>,
-    slots_by_key: Vec<std::ops::Range<u32>>,
     sums: Vec<Complex64>,
     takes: Vec<Complex64>,
+    /// The call each slot's sum was taken in (a sum is taken once a call, when a pair needs it).
+    summed: Vec<u32>,
+    call: u32,
 }
 
 /// A key's partial, as the pairs are found.
@@ -103,9 +105,10 @@ impl Sympathy {
             pairs: Vec::new(),
             by_key: vec![Vec::new(); 128],
             slots: Vec::new(),
-            slots_by_key: vec![0..0; 128],
             sums: Vec::new(),
             takes: Vec::new(),
+            summed: Vec::new(),
+            call: 0,
         }
     }
 
@@ -174,17 +177,16 @@ impl Sympathy {
         }
         let slots: Vec<Slot> =
             entries.iter().map(|e| Slot { key: e.key, strings: e.port.strings, partial: e.port.partial as u16 }).collect();
-        let mut slots_by_key = vec![0..0; 128];
-        for (i, slot) in slots.iter().enumerate() {
-            let range = &mut slots_by_key[slot.key as usize & 127];
-            if range.start == range.end {
-                *range = i as u32..i as u32 + 1;
-            } else {
-                range.end = i as u32 + 1;
-            }
-        }
         let n = slots.len();
-        Self { pairs, by_key, slots, slots_by_key, sums: vec![Complex64::new(0.0, 0.0); n], takes: vec![Complex64::new(0.0, 0.0); n] }
+        Self {
+            pairs,
+            by_key,
+            slots,
+            sums: vec![Complex64::new(0.0, 0.0); n],
+            takes: vec![Complex64::new(0.0, 0.0); n],
+            summed: vec![0; n],
+            call: 0,
+        }
     }
 
     /// How many pairs of partials trade.
@@ -192,49 +194,55 @@ impl Sympathy {
         self.pairs.len()
     }
 
-    /// One interval of trading among `keys` at `level` (0..=1 of the
-    /// physics), the sustain pedal at `sustain`, the pitch bent by `bend`;
+    /// One block's share of the trading among `keys` at `level` (0..=1 of
+    /// the physics), the sustain pedal at `sustain`, the pitch bent by `bend`;
     /// a silent key is woken only by what it would not fall silent from at
     /// once (`silence`, full scale). Every sounding key's partials are summed
-    /// once, each pair of a sounding key with a key that may ring (sounding,
-    /// or its damper off) adds what it gives, and each partial then takes it
-    /// at once. Allocates: no.
-    pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64) {
+    /// once; the pairs of the sounding keys whose number is `phase` modulo
+    /// [`crate::key::SYMPATHY_BLOCKS`] (each pair taken from its lower sounding
+    /// key) add what their interval gives, so every pair trades once an
+    /// interval and the work is spread over its blocks; each partial then
+    /// takes it at once. Allocates: no.
+    pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64, phase: usize) {
         if level <= 0.0 || self.pairs.is_empty() {
             return;
         }
         let level = level.min(1.0);
         let mut sounding = [false; 128];
-        let mut free = [false; 128];
+        let mut due = false;
         for (k, key) in keys.iter().enumerate().take(128) {
-            if let Some(key) = key {
-                sounding[k] = key.is_sounding();
-                free[k] = sounding[k] || key.rings_free(sustain);
-            }
+            sounding[k] = key.as_ref().is_some_and(Key::is_sounding);
+            due |= sounding[k] && k % crate::key::SYMPATHY_BLOCKS == phase;
         }
-        // Gather: each sounding key's partials summed over their strings.
-        for k in (0..128).filter(|&k| sounding[k]) {
-            let Some(Some(key)) = keys.get(k) else { continue };
-            let range = self.slots_by_key[k].clone();
-            for i in range.start as usize..range.end as usize {
-                let slot = self.slots[i];
-                self.sums[i] = key.partial_sum(slot.strings, slot.partial as usize);
-            }
+        if !due {
+            return;
         }
-        // Trade: each pair of a sounding key and a key free to ring, once.
-        for k in (0..128).filter(|&k| sounding[k]) {
-            for &n in &self.by_key[k] {
-                let p = self.pairs[n as usize];
+        // Whether a key may ring, and each sounding partial summed over its
+        // strings, found when a pair first needs them.
+        let mut free: [Option<bool>; 128] = [None; 128];
+        self.call = self.call.wrapping_add(1);
+        if self.call == 0 {
+            self.summed.fill(0);
+            self.call = 1;
+        }
+        for k in (0..128).filter(|&k| sounding[k] && k % crate::key::SYMPATHY_BLOCKS == phase) {
+            for j in 0..self.by_key[k].len() {
+                let p = self.pairs[self.by_key[k][j] as usize];
                 let other = if p.key_a as usize == k { p.key_b } else { p.key_a } as usize;
-                if !free[other] || (sounding[other] && other < k) {
+                let rings = *free[other].get_or_insert_with(|| {
+                    sounding[other] || keys.get(other).and_then(Option::as_ref).is_some_and(|key| key.rings_free(sustain))
+                });
+                if !rings || (sounding[other] && other < k) {
                     continue;
                 }
                 let (a, b) = (p.a as usize, p.b as usize);
                 if sounding[p.key_b as usize] {
-                    self.takes[a] += p.into_a * self.sums[b];
+                    let sum = self.sum(keys, b);
+                    self.takes[a] += p.into_a * sum;
                 }
                 if sounding[p.key_a as usize] {
-                    self.takes[b] += p.into_b * self.sums[a];
+                    let sum = self.sum(keys, a);
+                    self.takes[b] += p.into_b * sum;
                 }
             }
         }
@@ -249,11 +257,19 @@ impl Sympathy {
             }
             *take = Complex64::new(0.0, 0.0);
         }
-        // The sums of keys no longer sounding are stale; clear those just used.
-        for k in (0..128).filter(|&k| sounding[k]) {
-            let range = self.slots_by_key[k].clone();
-            self.sums[range.start as usize..range.end as usize].fill(Complex64::new(0.0, 0.0));
+    }
+
+    /// Slot `i`'s partial summed over its strings, taken once a call.
+    fn sum(&mut self, keys: &[Option<Key>], i: usize) -> Complex64 {
+        if self.summed[i] != self.call {
+            let slot = self.slots[i];
+            self.summed[i] = self.call;
+            self.sums[i] = match keys.get(slot.key as usize) {
+                Some(Some(key)) => key.partial_sum(slot.strings, slot.partial as usize),
+                _ => Complex64::new(0.0, 0.0),
+            };
         }
+        self.sums[i]
     }
 }
 
@@ -273,9 +289,9 @@ mod tests {
         synth.process(&events, &mut l, &mut r);
         let current = &mut *synth.current;
         let t = std::time::Instant::now();
-        for _ in 0..20 {
-            current.sympathy.trade(&mut current.keys, 1.0, 1.0, 1.0, 1e-6);
+        for i in 0..24 {
+            current.sympathy.trade(&mut current.keys, 1.0, 1.0, 1.0, 1e-6, i % crate::key::SYMPATHY_BLOCKS);
         }
-        println!("{} pairs: {:.1} us per trade", current.sympathy.len(), t.elapsed().as_secs_f64() * 1e6 / 20.0);
+        println!("{} pairs: {:.1} us per block's share", current.sympathy.len(), t.elapsed().as_secs_f64() * 1e6 / 24.0);
     }
 }

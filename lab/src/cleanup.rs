@@ -21,9 +21,11 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 struct Listed {
     files: Vec<PathBuf>,
     dirs: Vec<PathBuf>,
+    /// Folders removed with everything in them.
+    trees: Vec<PathBuf>,
 }
 
-static LISTED: Mutex<Listed> = Mutex::new(Listed { files: Vec::new(), dirs: Vec::new() });
+static LISTED: Mutex<Listed> = Mutex::new(Listed { files: Vec::new(), dirs: Vec::new(), trees: Vec::new() });
 
 fn listed() -> std::sync::MutexGuard<'static, Listed> {
     LISTED.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -49,6 +51,11 @@ pub fn track_dir(path: &Path) {
     listed().dirs.push(path.to_path_buf());
 }
 
+/// List a scratch folder (removed with its contents on a signal).
+pub fn track_tree(path: &Path) {
+    listed().trees.push(path.to_path_buf());
+}
+
 /// Take `path` off the lists (put in place, or removed by its owner).
 pub fn forget(path: &Path) {
     forget_from(&mut listed(), path);
@@ -57,6 +64,7 @@ pub fn forget(path: &Path) {
 fn forget_from(l: &mut Listed, path: &Path) {
     l.files.retain(|p| p != path);
     l.dirs.retain(|p| p != path);
+    l.trees.retain(|p| p != path);
 }
 
 thread_local! {
@@ -88,6 +96,9 @@ pub fn install(command: &'static str) {
         let l = listed();
         for file in &l.files {
             let _ = std::fs::remove_file(file);
+        }
+        for tree in &l.trees {
+            let _ = std::fs::remove_dir_all(tree);
         }
         for dir in l.dirs.iter().rev() {
             let _ = std::fs::remove_dir(dir);

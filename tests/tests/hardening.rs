@@ -190,3 +190,21 @@ fn metrics_never_hold_a_null() {
         assert!(!metrics.contains("null"), "{name}: {metrics}");
     }
 }
+
+#[test]
+fn a_stop_signal_during_a_chart_leaves_nothing_behind() {
+    // A chart draws many files: into a folder beside --out, put in place together.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("charts");
+    let child = std::process::Command::new(struck_tests::struck_binary())
+        .args(["chart", "hammer", "--instrument", "piano", "--key", "C4", "--grid", "200", "--out", &text(&out)])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success());
+    let done = child.wait_with_output().unwrap();
+    assert_eq!(done.status.code(), Some(130), "{}", stderr(&done));
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "nothing left");
+}

@@ -180,26 +180,24 @@ fn report(drawn: &[Drawn], started: Instant) {
 pub fn run(args: &ChartArgs) -> Result<(), Failure> {
     let started = Instant::now();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
-    let out = &args.out;
-    let create =
-        || std::fs::create_dir_all(out).map_err(|e| Failure::failed(format!("{}: cannot create: {e}", out.display())));
+    // Drawn into a folder beside --out, then put there together.
+    let final_out = &args.out;
+    let staging = super::output::StagedFolder::beside(final_out)?;
+    let out = staging.path();
     let drawn = match &args.chart {
         Chart::Hammer(h) => {
             check_grid(h.grid.grid)?;
             let case = hammer_case(h)?;
             let options = GridOptions { size: h.grid.grid, log_mass: h.grid.log_mass, progress: true };
-            create()?;
             hammer::hammer_charts(&case, &options, out, "hammer").map_err(failed)?
         }
         Chart::Universal(u) => {
             check_grid(u.grid)?;
             let options = GridOptions { size: u.grid, log_mass: true, progress: true };
-            create()?;
             hammer::universal_charts(&options, out).map_err(failed)?
         }
         Chart::Stringing(s) => {
             let kind = parse_kind(&s.instrument)?;
-            create()?;
             figures::stringing(kind, out, "stringing").map_err(failed)?
         }
         Chart::Strike(s) => {
@@ -236,19 +234,24 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                     cases.push(c);
                 }
             }
-            create()?;
             figures::strikes(&cases, out, s.per_speed).map_err(failed)?
         }
         Chart::Clavichord => {
-            create()?;
             figures::clavichord(out).map_err(failed)?
         }
         Chart::Body(b) => {
             let kind = parse_kind(&b.instrument)?;
-            create()?;
             figures::body::body(kind, out).map_err(failed)?
         }
     };
+    let inputs: Vec<&Path> = match &args.chart {
+        Chart::Hammer(h) => h.case.iter().map(PathBuf::as_path).collect(),
+        Chart::Strike(s) => s.cases.iter().map(PathBuf::as_path).collect(),
+        _ => Vec::new(),
+    };
+    staging.commit_into(final_out, &inputs)?;
+    let placed = |p: &Path| final_out.join(p.file_name().unwrap_or_default());
+    let drawn: Vec<Drawn> = drawn.iter().map(|d| Drawn { png: placed(&d.png), csv: placed(&d.csv) }).collect();
     report(&drawn, started);
     Ok(())
 }

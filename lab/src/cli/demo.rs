@@ -110,11 +110,13 @@ fn films() -> Vec<(&'static str, &'static str, String, crate::strike::StrikeCase
 
 pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    let out = &args.out;
-    std::fs::create_dir_all(out).map_err(|e| Failure::failed(format!("{}: cannot create: {e}", out.display())))?;
+    // Drawn into a folder beside --out, then put there together.
+    let final_out = &args.out;
+    let staging = super::output::StagedFolder::beside(final_out)?;
+    let out = staging.path();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     let grid = if args.quick { QUICK_GRID } else { FULL_GRID };
-    println!("struck demo: the seed's sounds, figures and animations into {}", out.display());
+    println!("struck demo: the seed's sounds, figures and animations into {}", final_out.display());
 
     // Sounds, in parallel.
     let sounds = seed_sounds::sounds();
@@ -235,11 +237,12 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let mut staged = Staged::default();
     staged.write(&out.join("index.html"), |w| std::io::Write::write_all(w, html.as_bytes()))?;
     staged.commit()?;
+    staging.commit_into(final_out, &[])?;
     let files = entries.iter().flat_map(Entry::links).count();
     println!(
         "wrote {} files and {} in {:.1} s",
         files,
-        out.join("index.html").display(),
+        final_out.join("index.html").display(),
         started.elapsed().as_secs_f64()
     );
     Ok(())

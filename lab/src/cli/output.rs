@@ -119,6 +119,17 @@ impl Staged {
         }
     }
 
+    /// Stage `temporary`, a file already written beside `path` (in a
+    /// [`StagedFolder`] on the same file system), to be put at `path`.
+    fn adopt(&mut self, temporary: &Path, path: &Path) -> Result<(), Failure> {
+        check_destination(path, &self.inputs)?;
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            self.make_folders(parent)?;
+        }
+        self.files.push((temporary.to_path_buf(), path.to_path_buf()));
+        Ok(())
+    }
+
     /// Write one file through `fill`.
     pub fn write(
         &mut self,
@@ -241,6 +252,54 @@ impl Drop for Staged {
                 cleanup::forget(dir);
             }
         }
+    }
+}
+
+/// A folder beside a command's output folder that its many files are drawn
+/// into, then put in the output folder together ([`Self::commit_into`]); it
+/// is removed with whatever is left in it, also on a stop signal.
+pub struct StagedFolder {
+    path: PathBuf,
+}
+
+impl StagedFolder {
+    /// A new, empty folder beside `out` (its parent made if missing).
+    pub fn beside(out: &Path) -> Result<Self, Failure> {
+        let name = format!(".struck-{}-{}.part", std::process::id(), out.file_name().map_or(0, |n| n.len()));
+        let path = out.with_file_name(name);
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty() && !p.exists()) {
+            fs::create_dir_all(parent).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(parent))))?;
+        }
+        fs::create_dir(&path).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&path))))?;
+        cleanup::track_tree(&path);
+        Ok(Self { path })
+    }
+
+    /// Where to draw.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Put every file drawn into `out` together (see [`Staged::commit`]),
+    /// none of them over one of `inputs`.
+    pub fn commit_into(self, out: &Path, inputs: &[&Path]) -> Result<(), Failure> {
+        let mut staged = Staged::reading(inputs);
+        let mut names: Vec<_> = fs::read_dir(&self.path)
+            .map_err(|e| Failure::failed(format!("cannot read {}: {e}", shown(&self.path))))?
+            .filter_map(|e| e.ok().map(|e| e.file_name()))
+            .collect();
+        names.sort();
+        for name in names {
+            staged.adopt(&self.path.join(&name), &out.join(&name))?;
+        }
+        staged.commit()
+    }
+}
+
+impl Drop for StagedFolder {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.path);
+        cleanup::forget(&self.path);
     }
 }
 

@@ -94,6 +94,9 @@ fn a_device_or_folder_is_never_replaced_and_folders_made_for_a_failure_go() {
     refused(&struck(&["strike", &text(&case), "--out", &text(&deep), "--wav", "/dev/null"]), "is not a regular file");
     assert!(!dir.path().join("new").exists(), "the folders made for it are gone");
     refused(&struck(&["strike", &text(&case), "--out", &text(dir.path()), "--wav", &text(dir.path())]), "is a directory");
+    refused(&struck(&["strike", &text(&case), "--out", "/dev/null"]), "/dev/null: is not a folder");
+    refused(&struck(&["strike", &text(&case), "--out", &text(&case)]), "is not a folder");
+    assert_eq!(std::fs::read_to_string(&case).unwrap(), SANTOOR_CASE);
 }
 
 #[test]

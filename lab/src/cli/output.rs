@@ -81,6 +81,9 @@ impl Staged {
 
     /// The folder `dir` and any missing above it, made and remembered.
     fn make_folders(&mut self, dir: &Path) -> Result<(), Failure> {
+        if let Some(taken) = dir.ancestors().find(|d| !d.as_os_str().is_empty() && d.exists() && !d.is_dir()) {
+            return Err(Failure::bad_input(format!("{}: is not a folder; nothing is written into it", shown(taken))));
+        }
         let missing: Vec<&Path> = dir.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).collect();
         for d in missing.into_iter().rev() {
             fs::create_dir(d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(d))))?;

@@ -206,12 +206,14 @@ fn writing_is_all_or_nothing() {
     let names: Vec<String> =
         std::fs::read_dir(s.out()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     assert_eq!(names.len(), 2, "{names:?}");
-    // An output that cannot be written: status 1, one line.
+    // An output folder that is a file: refused (status 2, one line), the file kept.
     let blocked = s.dir.path().join("blocked");
     std::fs::write(&blocked, "a file where a directory should be").unwrap();
     let out = struck(&["strike", s.case().to_str().unwrap(), "--out", blocked.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
+    assert!(stderr(&out).contains("is not a folder"), "{}", stderr(&out));
+    assert_eq!(std::fs::read_to_string(&blocked).unwrap(), "a file where a directory should be");
 }
 
 // ---- refusals, one per rule -------------------------------------------------

@@ -18,7 +18,7 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-struct Listed {
+pub struct Listed {
     files: Vec<PathBuf>,
     dirs: Vec<PathBuf>,
     /// Folders removed with everything in them.
@@ -67,25 +67,19 @@ fn forget_from(l: &mut Listed, path: &Path) {
     l.trees.retain(|p| p != path);
 }
 
-thread_local! {
-    /// The lists held by this thread's [`holding`].
-    static HELD: std::cell::RefCell<Option<std::sync::MutexGuard<'static, Listed>>> = const { std::cell::RefCell::new(None) };
-}
+/// The lists, held (see [`holding`]).
+pub struct Held<'a>(std::sync::MutexGuard<'a, Listed>);
 
-/// [`forget`] from inside [`holding`] (the lists are already held).
-pub fn forget_held(path: &Path) {
-    HELD.with(|held| match held.borrow_mut().as_mut() {
-        Some(l) => forget_from(l, path),
-        None => forget(path),
-    });
+impl Held<'_> {
+    /// [`forget`], with the lists already held.
+    pub fn forget(&mut self, path: &Path) {
+        forget_from(&mut self.0, path);
+    }
 }
 
 /// Run `work` with the lists held: a signal waits until it is done.
-pub fn holding<R>(work: impl FnOnce() -> R) -> R {
-    HELD.with(|held| *held.borrow_mut() = Some(listed()));
-    let result = work();
-    HELD.with(|held| *held.borrow_mut() = None);
-    result
+pub fn holding<R>(work: impl FnOnce(&mut Held) -> R) -> R {
+    work(&mut Held(listed()))
 }
 
 /// Handle stop signals for `command` (printed in the last line).

@@ -181,10 +181,10 @@ impl Staged {
     /// Put every staged file in place, all or none: what stood at a
     /// destination is set aside first and restored if any file fails.
     pub fn commit(mut self) -> Result<(), Failure> {
-        cleanup::holding(|| self.commit_held())
+        cleanup::holding(|held| self.commit_held(held))
     }
 
-    fn commit_held(&mut self) -> Result<(), Failure> {
+    fn commit_held(&mut self, held: &mut cleanup::Held) -> Result<(), Failure> {
         let files = std::mem::take(&mut self.files);
         // Set aside what the files replace.
         let mut aside: Vec<(PathBuf, PathBuf)> = Vec::new();
@@ -210,7 +210,7 @@ impl Staged {
                     let _ = fs::remove_file(old);
                 }
                 self.committed = true;
-                self.forget_all(&files);
+                self.forget_all(&files, held);
                 Ok(())
             }
             Err(e) => {
@@ -223,7 +223,7 @@ impl Staged {
                 for (temporary, _) in &files {
                     let _ = fs::remove_file(temporary);
                 }
-                self.forget_all(&files);
+                self.forget_all(&files, held);
                 Err(e)
             }
         }
@@ -231,12 +231,12 @@ impl Staged {
 
     /// Take the files (put in place or removed) and the folders off the
     /// signal handler's lists; the lists are held by the caller.
-    fn forget_all(&self, files: &[(PathBuf, PathBuf)]) {
+    fn forget_all(&self, files: &[(PathBuf, PathBuf)], held: &mut cleanup::Held) {
         for (temporary, _) in files {
-            cleanup::forget_held(temporary);
+            held.forget(temporary);
         }
         for dir in &self.made {
-            cleanup::forget_held(dir);
+            held.forget(dir);
         }
     }
 }

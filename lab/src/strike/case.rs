@@ -218,6 +218,16 @@ const HYSTERESIS_FIELDS: &[&str] = &["epsilon", "tau_s"];
 const TANGENT_FIELDS: &[&str] = &["kind", "speed_m_s", "displacement_m"];
 const PLUCK_FIELDS: &[&str] = &["kind", "displacement_m", "position"];
 
+/// Every field name a case may hold, at any depth, once each (for tools that
+/// edit cases, and tests that damage them).
+pub fn field_names() -> Vec<&'static str> {
+    let mut names: Vec<&'static str> =
+        [CASE_FIELDS, STRING_FIELDS, HAMMER_FIELDS, HYSTERESIS_FIELDS, TANGENT_FIELDS, PLUCK_FIELDS].concat();
+    names.sort_unstable();
+    names.dedup();
+    names
+}
+
 fn case_from_value(root: &Value) -> Result<StrikeCase, CaseError> {
     let top = Fields::new("", Some(root), CASE_FIELDS)
         .map_err(|e| if e.field.is_empty() { CaseError { field: "case".into(), reason: e.reason } } else { e })?;

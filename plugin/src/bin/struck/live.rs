@@ -151,23 +151,15 @@ const SAMPLE_RATES_HZ: std::ops::RangeInclusive<u32> = 22_050..=192_000;
 impl Wanted {
     /// Refuse a period or sample rate out of range, naming it.
     fn check(&self) -> Result<(), String> {
-        if !PERIODS.contains(&self.period) {
-            return Err(format!(
-                "--period-size {}: must lie between {} and {} samples",
-                self.period,
-                PERIODS.start(),
-                PERIODS.end()
-            ));
-        }
-        if !SAMPLE_RATES_HZ.contains(&self.sample_rate_hz) {
-            return Err(format!(
-                "--sample-rate {}: must lie between {} and {} Hz",
-                self.sample_rate_hz,
-                SAMPLE_RATES_HZ.start(),
-                SAMPLE_RATES_HZ.end()
-            ));
-        }
-        Ok(())
+        let within = |option: &str, value: u32, range: &std::ops::RangeInclusive<u32>, unit: &str| {
+            if range.contains(&value) {
+                Ok(())
+            } else {
+                Err(format!("{option} {value}: must lie between {} and {} {unit}", range.start(), range.end()))
+            }
+        };
+        within("--period-size", self.period, &PERIODS, "samples")?;
+        within("--sample-rate", self.sample_rate_hz, &SAMPLE_RATES_HZ, "Hz")
     }
 }
 

@@ -230,6 +230,9 @@ pub(crate) struct Key {
     /// How much louder the body hears it than the bridge-force output does (its
     /// ringing gain over the gain the bridge force's peak allows).
     body_boost: f64,
+    /// How much louder than its bridge-force gain it bears on the body (its
+    /// voicing there, [`Key::bear_on`]; 1 until voiced).
+    body_gain: f64,
     /// Its regulation: the gain of a strike by its touch (empty: 1), and the
     /// gain now and where it glides to (the last strike's).
     regulation: Vec<(f64, f64)>,
@@ -392,6 +395,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
             gain_per_n: design.gain_per_n,
             bridge_point: BridgePoint::panned(design.pan),
+            body_gain: 1.0,
             body_boost: if design.gain_per_n > 0.0 {
                 (design.ring_gain_per_n / design.gain_per_n).max(1.0)
             } else {
@@ -450,8 +454,19 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// Bear on the body's zones as `share` says, `voicing` times louder there
     /// than at its bridge-force gain.
     pub fn bear_on(&mut self, share: ZoneShare, voicing: f64) {
+        self.body_gain = voicing;
         let weights = share.weights.map(|w| w * voicing);
         self.bridge_point = self.bridge_point.on_zones(ZoneShare { weights, ..share });
+    }
+
+    /// What a newton of its strings' force on the bridge is heard at: its
+    /// output gain, its voicing on the body and the last strike's regulation.
+    /// A key's strings are heard at their own gain; energy that moves between
+    /// keys through the bridge is weighed by the ratio of theirs, so that what
+    /// one string hands another is heard as loud as it was (see
+    /// `synth::sympathy`).
+    pub fn heard_per_n(&self) -> f64 {
+        self.gain_per_n * self.body_gain * self.strike_gain
     }
 
     /// Play its first note at `touch` alone for `force.len()` samples, writing
@@ -522,13 +537,21 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// once (a drive under [`WAKE_OVER_SILENCE`] times `silence` of full
     /// scale); one that takes it starts to sound, its damper where the pedal has it and
     /// its pitch bent by `bend`, and stays sounding while it is driven that hard.
-    /// Allocates: no.
-    pub fn drive_partial(&mut self, strings: u8, partial: usize, delta: Complex64, sustain: f64, bend: f64, silence: f64) {
+    /// Returns whether it took it. Allocates: no.
+    pub fn drive_partial(
+        &mut self,
+        strings: u8,
+        partial: usize,
+        delta: Complex64,
+        sustain: f64,
+        bend: f64,
+        silence: f64,
+    ) -> bool {
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
-        let felt = (delta.re.abs() + delta.im.abs()) * self.gain_per_n >= WAKE_OVER_SILENCE * silence;
+        let felt = self.would_wake(delta, silence);
         if !self.active {
             if self.damper.target(false, sustain) >= 1.0 || !felt {
-                return;
+                return false;
             }
             self.wake(sustain, bend);
         }
@@ -551,6 +574,13 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 s.bank_mut().set_phasor(partial, z);
             }
         }
+        true
+    }
+
+    /// Whether moving a partial of its strings by `delta` (N) would wake it
+    /// silent (more than [`WAKE_OVER_SILENCE`] times `silence`, full scale).
+    pub fn would_wake(&self, delta: Complex64, silence: f64) -> bool {
+        (delta.re.abs() + delta.im.abs()) * self.gain_per_n >= WAKE_OVER_SILENCE * silence
     }
 
     /// Start sounding from rest without a stroke (its strings set ringing by

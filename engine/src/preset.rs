@@ -418,7 +418,7 @@ mod tests {
         assert_eq!(p.controls.polyphony, 8);
         assert_eq!(p.tuning.temperament, Temperament::Vallotti);
         assert_eq!(p.tuning.a4_hz, 430.0);
-        assert_eq!(p.tuning.stretch, 0.0);
+        assert_eq!(p.tuning.stretch, 1.0, "a tuner's stretch");
         // Presets written before these settings existed play them as built.
         assert_eq!(p.voicing.felt_hysteresis, 1.0);
         let c = p.controls;

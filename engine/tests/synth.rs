@@ -441,8 +441,10 @@ fn fine_peak(x: &[f32], guess_hz: f64) -> f64 {
         .unwrap()
 }
 
+/// The clavichord unstretched: each key at its own equal-tempered pitch.
 fn clavichord(voicing: Voicing) -> Synth {
-    let settings = InstrumentSettings { voicing, ..default_settings(InstrumentKind::Clavichord, FS) };
+    let mut settings = InstrumentSettings { voicing, ..default_settings(InstrumentKind::Clavichord, FS) };
+    settings.tuning.stretch = 0.0;
     let mut synth = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
     synth.set_controls(bridge());
     synth

@@ -397,7 +397,7 @@ impl Default for StruckParams {
                     .with_string_to_value(std::sync::Arc::new(|s| {
                         (0..12).find(|&p| pitch_class_name(p as u8).eq_ignore_ascii_case(s.trim()))
                     })),
-                stretch: percent_param("Stretch", 0.0),
+                stretch: percent_param("Stretch", 1.0),
             },
             output: OutputParams {
                 polyphony: IntParam::new("Polyphony", 64, IntRange::Linear { min: 1, max: 128 }).with_unit(" keys"),

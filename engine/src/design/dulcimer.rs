@@ -406,7 +406,10 @@ mod tests {
     /// The same over `seconds`, from 0.1 s.
     fn ringing_for(key: u8, let_go: bool, seconds: f64) -> Vec<f32> {
         let fs = 48_000.0;
-        let instrument = Instrument::build(&default_settings(InstrumentKind::Dulcimer, fs)).unwrap();
+        // Unstretched: the design's own frequencies.
+        let mut settings = default_settings(InstrumentKind::Dulcimer, fs);
+        settings.tuning.stretch = 0.0;
+        let instrument = Instrument::build(&settings).unwrap();
         let (mut synth, _) = Synth::new(Box::new(instrument));
         // The course alone: the other courses tuned to its sides' partials
         // would take their share through the body too (sympathetic strings,

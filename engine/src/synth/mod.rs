@@ -797,7 +797,7 @@ fn glide_step(sample_rate_hz: f64) -> f64 {
 }
 
 /// Settings of an instrument for `kind` at `sample_rate_hz`, voiced as built,
-/// in equal temperament at A4 = 440 Hz.
+/// in equal temperament at A4 = 440 Hz with a tuner's stretch.
 pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> InstrumentSettings {
     InstrumentSettings {
         kind,

@@ -24,6 +24,13 @@
 //! at once; a silent key takes it only if its damper is off, and wakes only
 //! for a drive it would not fall silent from.
 //!
+//! Each key is heard at its own gain ([`Key::heard_per_n`]: its voicing on
+//! the body, the regulation of its last strike), so what b hands a is
+//! weighed by b's gain over a's, and what a hands b by the inverse: a partial
+//! is heard in the other key as loud as the physics moves it, and the pair's
+//! loop (the product of the two) is the unweighed one, as stable as before
+//! (the weighing is a change of each key's unit).
+//!
 //! The trade is two-way, so energy leaves the driving string as it should.
 //! A passive board's transfer admittance is bounded by its drive-point ones
 //! (|Y_ab|^2 <= Re Y_aa Re Y_bb for a single mode, and so near a resonance):
@@ -88,6 +95,16 @@ pub(crate) struct Sympathy {
     /// The call each slot's sum was taken in (a sum is taken once a call, when a pair needs it).
     summed: Vec<u32>,
     call: u32,
+    /// What a silent key's partial has been given and not yet taken (too
+    /// little to wake it so far), per slot, as it stands at block `given_at`;
+    /// the slots holding some, and each slot's pole to carry it on with.
+    held: Vec<Complex64>,
+    given_at: Vec<u64>,
+    holding: Vec<u32>,
+    poles: Vec<Complex64>,
+    /// Blocks traded so far, and a block's length, s.
+    block: u64,
+    block_s: f64,
 }
 
 /// A key's partial, as the pairs are found.
@@ -109,6 +126,12 @@ impl Sympathy {
             takes: Vec::new(),
             summed: Vec::new(),
             call: 0,
+            held: Vec::new(),
+            given_at: Vec::new(),
+            holding: Vec::new(),
+            poles: Vec::new(),
+            block: 0,
+            block_s: 0.0,
         }
     }
 
@@ -186,6 +209,12 @@ impl Sympathy {
             takes: vec![Complex64::new(0.0, 0.0); n],
             summed: vec![0; n],
             call: 0,
+            held: vec![Complex64::new(0.0, 0.0); n],
+            given_at: vec![0; n],
+            holding: Vec::with_capacity(n),
+            poles: entries.iter().map(|e| e.port.lambda).collect(),
+            block: 0,
+            block_s: step_s / crate::key::SYMPATHY_BLOCKS as f64,
         }
     }
 
@@ -204,9 +233,12 @@ impl Sympathy {
     /// interval and the work is spread over its blocks; each partial then
     /// takes it at once. Allocates: no.
     pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64, phase: usize) {
+        self.block += 1;
         if level <= 0.0 || self.pairs.is_empty() {
+            self.drop_held();
             return;
         }
+        self.hand_on_held(keys, sustain, bend, silence);
         let level = level.min(1.0);
         let mut sounding = [false; 128];
         let mut due = false;
@@ -220,6 +252,8 @@ impl Sympathy {
         // Whether a key may ring, and each sounding partial summed over its
         // strings, found when a pair first needs them.
         let mut free: [Option<bool>; 128] = [None; 128];
+        // What each key's newton is heard at (found when a pair first needs it).
+        let mut heard = [0.0f64; 128];
         self.call = self.call.wrapping_add(1);
         if self.call == 0 {
             self.summed.fill(0);
@@ -236,27 +270,88 @@ impl Sympathy {
                     continue;
                 }
                 let (a, b) = (p.a as usize, p.b as usize);
+                let b_over_a = heard_ratio(keys, &mut heard, p.key_b, p.key_a);
                 if sounding[p.key_b as usize] {
                     let sum = self.sum(keys, b);
-                    self.takes[a] += p.into_a * sum;
+                    self.takes[a] += p.into_a * (sum * b_over_a);
                 }
                 if sounding[p.key_a as usize] {
                     let sum = self.sum(keys, a);
-                    self.takes[b] += p.into_b * sum;
+                    self.takes[b] += p.into_b * (sum / b_over_a);
                 }
             }
         }
-        // Scatter: each partial takes what it was given, and is cleared.
-        for (i, take) in self.takes.iter_mut().enumerate() {
+        // Scatter: each partial takes what it was given (with what it was
+        // given before and could not take), and is cleared. A silent key too
+        // little moved to wake holds what it was given, ringing on with it.
+        for i in 0..self.takes.len() {
+            let take = std::mem::take(&mut self.takes[i]);
             if take.re == 0.0 && take.im == 0.0 {
                 continue;
             }
+            let given = self.carried(i) + take * level;
             let slot = self.slots[i];
-            if let Some(Some(key)) = keys.get_mut(slot.key as usize) {
-                key.drive_partial(slot.strings, slot.partial as usize, *take * level, sustain, bend, silence);
+            let Some(Some(key)) = keys.get_mut(slot.key as usize) else { continue };
+            if key.drive_partial(slot.strings, slot.partial as usize, given, sustain, bend, silence) {
+                self.held[i] = Complex64::new(0.0, 0.0);
+            } else if key.rings_free(sustain) {
+                self.hold(i, given);
+            } else {
+                self.held[i] = Complex64::new(0.0, 0.0);
             }
-            *take = Complex64::new(0.0, 0.0);
         }
+    }
+
+    /// Slot `i`'s held drive carried on to this block by its pole.
+    fn carried(&self, i: usize) -> Complex64 {
+        let z = self.held[i];
+        if z.re == 0.0 && z.im == 0.0 {
+            return z;
+        }
+        z * (self.poles[i] * ((self.block - self.given_at[i]) as f64 * self.block_s)).exp()
+    }
+
+    fn hold(&mut self, i: usize, z: Complex64) {
+        let was = self.held[i];
+        if was.re == 0.0 && was.im == 0.0 && self.holding.len() < self.holding.capacity() {
+            self.holding.push(i as u32);
+        }
+        self.held[i] = z;
+        self.given_at[i] = self.block;
+    }
+
+    /// Held drives go to keys that have started sounding since (struck, or
+    /// woken through another partial); those whose key's damper came down,
+    /// or that have died away under a thousandth of what wakes a key, are
+    /// dropped.
+    fn hand_on_held(&mut self, keys: &mut [Option<Key>], sustain: f64, bend: f64, silence: f64) {
+        let mut j = 0;
+        while j < self.holding.len() {
+            let i = self.holding[j] as usize;
+            let z = self.carried(i);
+            let slot = self.slots[i];
+            let keep = match keys.get_mut(slot.key as usize) {
+                Some(Some(key)) if key.is_sounding() => {
+                    key.drive_partial(slot.strings, slot.partial as usize, z, sustain, bend, silence);
+                    false
+                }
+                Some(Some(key)) => key.rings_free(sustain) && key.would_wake(z * 1e3, silence),
+                _ => false,
+            };
+            if keep && !(self.held[i].re == 0.0 && self.held[i].im == 0.0) {
+                j += 1;
+            } else {
+                self.held[i] = Complex64::new(0.0, 0.0);
+                self.holding.swap_remove(j);
+            }
+        }
+    }
+
+    fn drop_held(&mut self) {
+        for &i in &self.holding {
+            self.held[i as usize] = Complex64::new(0.0, 0.0);
+        }
+        self.holding.clear();
     }
 
     /// Slot `i`'s partial summed over its strings, taken once a call.
@@ -271,6 +366,23 @@ impl Sympathy {
         }
         self.sums[i]
     }
+}
+
+/// How much louder key `b`'s strings are heard than key `a`'s per newton
+/// ([`Key::heard_per_n`]), each key's found once a trade (`heard` holds them,
+/// 0 until found); 1 where either has none.
+fn heard_ratio(keys: &[Option<Key>], heard: &mut [f64; 128], b: u8, a: u8) -> f64 {
+    let mut of = |k: u8| {
+        let h = &mut heard[k as usize & 127];
+        if *h == 0.0 {
+            *h = keys.get(k as usize).and_then(Option::as_ref).map_or(1.0, Key::heard_per_n);
+            if !(h.is_finite() && *h > 0.0) {
+                *h = 1.0;
+            }
+        }
+        *h
+    };
+    of(b) / of(a)
 }
 
 #[cfg(test)]

@@ -42,7 +42,10 @@ pub struct TuningSettings {
     /// Pitch class a historical temperament is laid from, 0 (C) to 11 (B).
     pub root: u8,
     /// Share of the inharmonic stretch applied, 0 (none) to 1 (octaves beatless
-    /// on the lower key's second partial).
+    /// on the lower key's second partial). 1 by default: a tuner tunes by ear,
+    /// octaves beatless, so a tuned piano's treble sits sharp and its bass flat
+    /// (the Railsback curve); 0 puts every key's first partial on its tempered
+    /// pitch.
     pub stretch: f64,
     /// The scale the `scala` temperament plays.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -51,7 +54,7 @@ pub struct TuningSettings {
 
 impl Default for TuningSettings {
     fn default() -> Self {
-        Self { a4_hz: 440.0, temperament: Temperament::Equal, root: 0, stretch: 0.0, scale: None }
+        Self { a4_hz: 440.0, temperament: Temperament::Equal, root: 0, stretch: 1.0, scale: None }
     }
 }
 
@@ -119,7 +122,10 @@ impl TuningSettings {
         if !mapped {
             text.push_str(&format!(", A4 = {} Hz", self.a4_hz));
         }
-        if self.stretch > 0.0 {
+        // A tuner's full stretch is the norm, and goes unsaid.
+        if self.stretch == 0.0 {
+            text.push_str(", unstretched");
+        } else if self.stretch != 1.0 {
             text.push_str(&format!(", stretch {}", self.stretch));
         }
         text

@@ -67,7 +67,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "NAME")]
     pub temperament: Option<String>,
     /// Share of the stretch the strings' own inharmonicity asks for, 0 (none) to 1
-    /// (every octave beatless on the lower key's second partial) [default: the preset's, else 0]
+    /// (every octave beatless on the lower key's second partial) [default: the preset's, else 1, as a tuner tunes]
     #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
     pub stretch: Option<f64>,
     /// Tune to a Scala scale (.scl), degree 0 on C4 at its equal-tempered pitch

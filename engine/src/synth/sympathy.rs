@@ -252,8 +252,14 @@ impl Sympathy {
         // Whether a key may ring, and each sounding partial summed over its
         // strings, found when a pair first needs them.
         let mut free: [Option<bool>; 128] = [None; 128];
-        // What each key's newton is heard at (found when a pair first needs it).
-        let mut heard = [0.0f64; 128];
+        // What each key's newton is heard at, and its inverse.
+        let mut heard = [1.0f64; 128];
+        let mut unheard = [1.0f64; 128];
+        for (k, key) in keys.iter().enumerate().take(128) {
+            if let Some(h) = key.as_ref().map(Key::heard_per_n).filter(|h| h.is_finite() && *h > 0.0) {
+                (heard[k], unheard[k]) = (h, 1.0 / h);
+            }
+        }
         self.call = self.call.wrapping_add(1);
         if self.call == 0 {
             self.summed.fill(0);
@@ -270,14 +276,14 @@ impl Sympathy {
                     continue;
                 }
                 let (a, b) = (p.a as usize, p.b as usize);
-                let b_over_a = heard_ratio(keys, &mut heard, p.key_b, p.key_a);
-                if sounding[p.key_b as usize] {
+                let (ka, kb) = (p.key_a as usize, p.key_b as usize);
+                if sounding[kb] {
                     let sum = self.sum(keys, b);
-                    self.takes[a] += p.into_a * (sum * b_over_a);
+                    self.takes[a] += p.into_a * (sum * (heard[kb] * unheard[ka]));
                 }
-                if sounding[p.key_a as usize] {
+                if sounding[ka] {
                     let sum = self.sum(keys, a);
-                    self.takes[b] += p.into_b * (sum / b_over_a);
+                    self.takes[b] += p.into_b * (sum * (heard[ka] * unheard[kb]));
                 }
             }
         }
@@ -366,23 +372,6 @@ impl Sympathy {
         }
         self.sums[i]
     }
-}
-
-/// How much louder key `b`'s strings are heard than key `a`'s per newton
-/// ([`Key::heard_per_n`]), each key's found once a trade (`heard` holds them,
-/// 0 until found); 1 where either has none.
-fn heard_ratio(keys: &[Option<Key>], heard: &mut [f64; 128], b: u8, a: u8) -> f64 {
-    let mut of = |k: u8| {
-        let h = &mut heard[k as usize & 127];
-        if *h == 0.0 {
-            *h = keys.get(k as usize).and_then(Option::as_ref).map_or(1.0, Key::heard_per_n);
-            if !(h.is_finite() && *h > 0.0) {
-                *h = 1.0;
-            }
-        }
-        *h
-    };
-    of(b) / of(a)
 }
 
 #[cfg(test)]

@@ -23,7 +23,7 @@ use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
-use crate::modal_bank::{LANES, add_lane_sums};
+use crate::modal_bank::{FreeGather, LANES, add_lane_sums};
 use crate::phantom::{Phantom, PhantomTable};
 use crate::string::{StringError, StringModes};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
@@ -223,6 +223,10 @@ pub(crate) struct Key {
     force_now_n: Vec<f64>,
     /// The free strings' bridge force by lane, for a control block.
     lanes: Box<[[f64; LANES]; CONTROL_BLOCK]>,
+    /// The free strings' modes and the phantom products, advanced together
+    /// ([`FreeGather`]), and where each string's lie in it.
+    gather: FreeGather,
+    gathered: Vec<Option<usize>>,
     /// Full scale per newton of bridge force.
     gain_per_n: f64,
     /// Where its strings bear on the bridge.
@@ -370,8 +374,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
             strings.push(s);
         }
+        let room = strings.iter().map(|s| s.bank().len().next_multiple_of(LANES)).sum::<usize>()
+            + phantom.as_ref().map_or(0, Phantom::room);
         Ok(Self {
             midi_key: design.midi_key,
+            gather: FreeGather::with_room(room),
+            gathered: vec![None; strings.len()],
             strings,
             notes,
             damper: Damper::new(design.damper),
@@ -1065,8 +1073,17 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
         let acc = &mut self.lanes[..out.len()];
         acc.fill([0.0; LANES]);
-        for s in &mut self.strings {
-            if contact.is_none() && s.accumulate_free(acc, out) {
+        // The free strings' modes (and the phantom products) are gathered and
+        // advanced in one run; a string in play steps sample by sample.
+        let gather = &mut self.gather;
+        gather.clear();
+        for (s, at) in self.strings.iter_mut().zip(self.gathered.iter_mut()) {
+            *at = None;
+            if contact.is_none() && s.free_for(out) {
+                *at = s.bank().gather_free(s.audio(), gather);
+                if at.is_none() {
+                    s.accumulate_free(acc, &mut []);
+                }
                 continue;
             }
             for (t, o) in out.iter_mut().enumerate() {
@@ -1077,8 +1094,24 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 }
             }
         }
-        if let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) {
-            p.accumulate(acc);
+        let phantom = match (self.phantom_on, self.phantom.as_mut()) {
+            (true, Some(p)) => match p.gather_free(gather) {
+                Some(at) => Some(at),
+                None => {
+                    p.accumulate(acc);
+                    None
+                }
+            },
+            _ => None,
+        };
+        gather.run(acc);
+        for (s, at) in self.strings.iter_mut().zip(&self.gathered) {
+            if let Some(at) = *at {
+                s.bank_mut().scatter_free(gather, at);
+            }
+        }
+        if let (Some(at), Some(p)) = (phantom, self.phantom.as_mut()) {
+            p.scatter_free(gather, at);
         }
         add_lane_sums(acc, out);
     }

@@ -38,7 +38,7 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
-use crate::modal_bank::{LANES, free_block};
+use crate::modal_bank::{FreeGather, LANES, free_block};
 use crate::string::StringModes;
 use crate::struck_string::StruckString;
 
@@ -214,6 +214,26 @@ impl Phantom {
     pub fn accumulate(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.running.next_multiple_of(LANES).min(self.re.len());
         free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);
+    }
+
+    /// Gather the products in play into `gather` (see
+    /// [`crate::modal_bank::FreeGather`]); where they lie, or None without room.
+    pub fn gather_free(&self, gather: &mut FreeGather) -> Option<usize> {
+        let n = self.running.next_multiple_of(LANES).min(self.re.len());
+        gather.take(&self.re[..n], &self.im[..n], &self.pole_re[..n], &self.pole_im[..n])
+    }
+
+    /// Take back the products' state from `gather` after it has run.
+    pub fn scatter_free(&mut self, gather: &FreeGather, at: usize) {
+        let n = self.running.next_multiple_of(LANES).min(self.re.len());
+        let (re, im) = gather.state(at, n);
+        self.re[..n].copy_from_slice(re);
+        self.im[..n].copy_from_slice(im);
+    }
+
+    /// Room the products need in a gathering.
+    pub fn room(&self) -> usize {
+        self.re.len()
     }
 
     /// Forget the products in play.

@@ -334,19 +334,31 @@ impl StruckString {
     ///
     /// Allocates: no.
     pub fn accumulate_free(&mut self, acc: &mut [[f64; LANES]], out: &mut [f64]) -> bool {
-        if let Exciter::Tangent(rig) = &self.exciter
-            && let Some(to_m) = rig.resting_at_m()
-        {
-            self.bank.accumulate_free(&self.audio, acc);
-            let line = self.string.tension_n * to_m / self.string.length_m;
-            out.iter_mut().for_each(|o| *o += line);
-            return true;
-        }
-        if self.exciter.in_play() {
+        if !self.free_for(out) {
             return false;
         }
         self.bank.accumulate_free(&self.audio, acc);
         true
+    }
+
+    /// Whether its modes turn freely over `out.len()` samples (no exciter in
+    /// play, or a tangent resting on it), adding a resting tangent's static
+    /// lift to `out`: then [`Self::accumulate_free`] without it, or a
+    /// gathering ([`ModalBank::gather_free`] with [`Self::audio`]), advances them.
+    pub fn free_for(&mut self, out: &mut [f64]) -> bool {
+        if let Exciter::Tangent(rig) = &self.exciter
+            && let Some(to_m) = rig.resting_at_m()
+        {
+            let line = self.string.tension_n * to_m / self.string.length_m;
+            out.iter_mut().for_each(|o| *o += line);
+            return true;
+        }
+        !self.exciter.in_play()
+    }
+
+    /// The audio rate's step of its modes.
+    pub fn audio(&self) -> &StepTable {
+        &self.audio
     }
 
     /// The present state, without stepping.

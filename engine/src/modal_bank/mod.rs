@@ -519,6 +519,22 @@ impl ModalBank {
         free_block(&mut self.re[..n], &mut self.im[..n], &step.pole_re[..n], &step.pole_im[..n], acc);
     }
 
+    /// Gather its running modes (with `step`'s poles) into `gather` to be
+    /// advanced freely there; returns where they lie, or None without room.
+    pub fn gather_free(&self, step: &StepTable, gather: &mut FreeGather) -> Option<usize> {
+        let n = self.running;
+        gather.take(&self.re[..n], &self.im[..n], &step.pole_re[..n], &step.pole_im[..n])
+    }
+
+    /// Take back its running modes' state from `gather`, where
+    /// [`Self::gather_free`] put them, after the gathering has run.
+    pub fn scatter_free(&mut self, gather: &FreeGather, at: usize) {
+        let n = self.running;
+        let (re, im) = gather.state(at, n);
+        self.re[..n].copy_from_slice(re);
+        self.im[..n].copy_from_slice(im);
+    }
+
     /// One driven step: every mode advances by `step` with the previous step's
     /// input `previous_input` carried through the drive (the current step's input
     /// is added later, by the caller's accounting, through `observe_per_input` and
@@ -602,6 +618,61 @@ fn lane_sum_all(values: &[f64]) -> f64 {
         }
     }
     lane_sum(&acc)
+}
+
+/// The free modes of several banks gathered into one run of the free loop,
+/// so that a key's few-mode treble strings fill its chains together (each
+/// bank alone would leave the multiply-add units waiting on one short chain).
+/// Holds room for a fixed number of modes: nothing allocates once made.
+#[derive(Clone, Debug, Default)]
+pub struct FreeGather {
+    re: Vec<f64>,
+    im: Vec<f64>,
+    pole_re: Vec<f64>,
+    pole_im: Vec<f64>,
+    len: usize,
+}
+
+impl FreeGather {
+    /// Room for `modes` modes (each bank's padded count). Allocates.
+    pub fn with_room(modes: usize) -> Self {
+        let n = padded(modes);
+        Self { re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], len: 0 }
+    }
+
+    /// Start a new gathering.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Add `n` modes (a multiple of [`LANES`]) with their poles; returns where
+    /// they lie, or None when there is no room (nothing taken).
+    pub fn take(&mut self, re: &[f64], im: &[f64], pole_re: &[f64], pole_im: &[f64]) -> Option<usize> {
+        let (at, n) = (self.len, re.len());
+        debug_assert_eq!(n % LANES, 0);
+        if at + n > self.re.len() {
+            return None;
+        }
+        self.re[at..at + n].copy_from_slice(re);
+        self.im[at..at + n].copy_from_slice(im);
+        self.pole_re[at..at + n].copy_from_slice(pole_re);
+        self.pole_im[at..at + n].copy_from_slice(pole_im);
+        self.len = at + n;
+        Some(at)
+    }
+
+    /// Advance every gathered mode over `acc.len()` samples, adding the bridge
+    /// force to `acc` by lane. The order of the gathering sets the order of the
+    /// sums: the same gathering gives the same bits.
+    pub fn run(&mut self, acc: &mut [[f64; LANES]]) {
+        let n = self.len;
+        free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);
+    }
+
+    /// The state of the `n` modes taken at `at`, as they stand now.
+    pub fn state(&self, at: usize, n: usize) -> (&[f64], &[f64]) {
+        (&self.re[at..at + n], &self.im[at..at + n])
+    }
 }
 
 /// Groups of [`LANES`] modes stepped together in the free loop: each mode's step

@@ -92,6 +92,10 @@ pub(crate) struct Sympathy {
     slots: Vec<Slot>,
     sums: Vec<Complex64>,
     takes: Vec<Complex64>,
+    /// The slots given something this trade (each once; more than there is
+    /// room for, and every slot is looked at).
+    given: Vec<u32>,
+    given_all: bool,
     /// The call each slot's sum was taken in (a sum is taken once a call, when a pair needs it).
     summed: Vec<u32>,
     call: u32,
@@ -124,6 +128,8 @@ impl Sympathy {
             slots: Vec::new(),
             sums: Vec::new(),
             takes: Vec::new(),
+            given: Vec::new(),
+            given_all: false,
             summed: Vec::new(),
             call: 0,
             held: Vec::new(),
@@ -207,6 +213,8 @@ impl Sympathy {
             slots,
             sums: vec![Complex64::new(0.0, 0.0); n],
             takes: vec![Complex64::new(0.0, 0.0); n],
+            given: Vec::with_capacity(n),
+            given_all: false,
             summed: vec![0; n],
             call: 0,
             held: vec![Complex64::new(0.0, 0.0); n],
@@ -279,18 +287,20 @@ impl Sympathy {
                 let (ka, kb) = (p.key_a as usize, p.key_b as usize);
                 if sounding[kb] {
                     let sum = self.sum(keys, b);
-                    self.takes[a] += p.into_a * (sum * (heard[kb] * unheard[ka]));
+                    self.give(a, p.into_a * (sum * (heard[kb] * unheard[ka])));
                 }
                 if sounding[ka] {
                     let sum = self.sum(keys, a);
-                    self.takes[b] += p.into_b * (sum * (heard[ka] * unheard[kb]));
+                    self.give(b, p.into_b * (sum * (heard[ka] * unheard[kb])));
                 }
             }
         }
         // Scatter: each partial takes what it was given (with what it was
         // given before and could not take), and is cleared. A silent key too
         // little moved to wake holds what it was given, ringing on with it.
-        for i in 0..self.takes.len() {
+        let given = if self.given_all { self.takes.len() } else { self.given.len() };
+        for j in 0..given {
+            let i = if self.given_all { j } else { self.given[j] as usize };
             let take = std::mem::take(&mut self.takes[i]);
             if take.re == 0.0 && take.im == 0.0 {
                 continue;
@@ -306,6 +316,22 @@ impl Sympathy {
                 self.held[i] = Complex64::new(0.0, 0.0);
             }
         }
+        self.given.clear();
+        self.given_all = false;
+    }
+
+    /// Add `z` to what slot `i` takes this trade.
+    #[inline]
+    fn give(&mut self, i: usize, z: Complex64) {
+        let t = &mut self.takes[i];
+        if t.re == 0.0 && t.im == 0.0 {
+            if self.given.len() < self.given.capacity() {
+                self.given.push(i as u32);
+            } else {
+                self.given_all = true;
+            }
+        }
+        *t += z;
     }
 
     /// Slot `i`'s held drive carried on to this block by its pole.

@@ -89,6 +89,10 @@ struct Slot {
 pub(crate) struct Sympathy {
     pairs: Vec<Pair>,
     by_key: Vec<Vec<u32>>,
+    /// For each key, its pairs grouped by the other key: (other, range in
+    /// `by_key[key]`), so that the pairs with a key that cannot ring are
+    /// passed over together.
+    by_other: Vec<Vec<(u8, u32, u32)>>,
     slots: Vec<Slot>,
     sums: Vec<Complex64>,
     takes: Vec<Complex64>,
@@ -125,6 +129,7 @@ impl Sympathy {
         Self {
             pairs: Vec::new(),
             by_key: vec![Vec::new(); 128],
+            by_other: vec![Vec::new(); 128],
             slots: Vec::new(),
             sums: Vec::new(),
             takes: Vec::new(),
@@ -168,7 +173,8 @@ impl Sympathy {
                 if eb.key == ea.key {
                     continue;
                 }
-                let (Some(Some(sa)), Some(Some(sb))) = (shapes.get(ea.key as usize), shapes.get(eb.key as usize)) else {
+                let (Some(Some(sa)), Some(Some(sb))) = (shapes.get(ea.key as usize), shapes.get(eb.key as usize))
+                else {
                     continue;
                 };
                 let (pa, pb) = (ea.port, eb.port);
@@ -183,7 +189,11 @@ impl Sympathy {
                 }
                 let answer = |from: &Port, to: &Port| {
                     let d = (to.lambda - from.lambda) * step_s;
-                    if d.norm() < 1e-9 { Complex64::new(step_s, 0.0) } else { (d.exp() - 1.0) / (to.lambda - from.lambda) }
+                    if d.norm() < 1e-9 {
+                        Complex64::new(step_s, 0.0)
+                    } else {
+                        (d.exp() - 1.0) / (to.lambda - from.lambda)
+                    }
                 };
                 let (to_a, to_b) = (answer(pb, pa), answer(pa, pb));
                 if !(norm * y_ab.norm() * to_a.norm().max(to_b.norm()) > NEGLIGIBLE) {
@@ -204,12 +214,31 @@ impl Sympathy {
             by_key[p.key_a as usize].push(n as u32);
             by_key[p.key_b as usize].push(n as u32);
         }
-        let slots: Vec<Slot> =
-            entries.iter().map(|e| Slot { key: e.key, strings: e.port.strings, partial: e.port.partial as u16 }).collect();
+        let other = |k: usize, n: u32| {
+            let p = &pairs[n as usize];
+            if p.key_a as usize == k { p.key_b } else { p.key_a }
+        };
+        let mut by_other = vec![Vec::new(); 128];
+        for (k, list) in by_key.iter_mut().enumerate() {
+            // Stable: each other key's pairs keep their order.
+            list.sort_by_key(|&n| other(k, n));
+            let mut start = 0;
+            while start < list.len() {
+                let o = other(k, list[start]);
+                let end = start + list[start..].iter().take_while(|&&n| other(k, n) == o).count();
+                by_other[k].push((o, start as u32, end as u32));
+                start = end;
+            }
+        }
+        let slots: Vec<Slot> = entries
+            .iter()
+            .map(|e| Slot { key: e.key, strings: e.port.strings, partial: e.port.partial as u16 })
+            .collect();
         let n = slots.len();
         Self {
             pairs,
             by_key,
+            by_other,
             slots,
             sums: vec![Complex64::new(0.0, 0.0); n],
             takes: vec![Complex64::new(0.0, 0.0); n],
@@ -257,9 +286,12 @@ impl Sympathy {
         if !due {
             return;
         }
-        // Whether a key may ring, and each sounding partial summed over its
-        // strings, found when a pair first needs them.
-        let mut free: [Option<bool>; 128] = [None; 128];
+        // Whether a key may ring (each sounding partial is summed over its
+        // strings when a pair first needs it).
+        let mut rings = [false; 128];
+        for (k, key) in keys.iter().enumerate().take(128) {
+            rings[k] = sounding[k] || key.as_ref().is_some_and(|key| key.rings_free(sustain));
+        }
         // What each key's newton is heard at, and its inverse.
         let mut heard = [1.0f64; 128];
         let mut unheard = [1.0f64; 128];
@@ -274,24 +306,24 @@ impl Sympathy {
             self.call = 1;
         }
         for k in (0..128).filter(|&k| sounding[k] && k % crate::key::SYMPATHY_BLOCKS == phase) {
-            for j in 0..self.by_key[k].len() {
-                let p = self.pairs[self.by_key[k][j] as usize];
-                let other = if p.key_a as usize == k { p.key_b } else { p.key_a } as usize;
-                let rings = *free[other].get_or_insert_with(|| {
-                    sounding[other] || keys.get(other).and_then(Option::as_ref).is_some_and(|key| key.rings_free(sustain))
-                });
-                if !rings || (sounding[other] && other < k) {
+            for g in 0..self.by_other[k].len() {
+                let (other, from, to) = self.by_other[k][g];
+                let other = other as usize;
+                if !rings[other] || (sounding[other] && other < k) {
                     continue;
                 }
-                let (a, b) = (p.a as usize, p.b as usize);
-                let (ka, kb) = (p.key_a as usize, p.key_b as usize);
-                if sounding[kb] {
-                    let sum = self.sum(keys, b);
-                    self.give(a, p.into_a * (sum * (heard[kb] * unheard[ka])));
-                }
-                if sounding[ka] {
-                    let sum = self.sum(keys, a);
-                    self.give(b, p.into_b * (sum * (heard[ka] * unheard[kb])));
+                for j in from as usize..to as usize {
+                    let p = self.pairs[self.by_key[k][j] as usize];
+                    let (a, b) = (p.a as usize, p.b as usize);
+                    let (ka, kb) = (p.key_a as usize, p.key_b as usize);
+                    if sounding[kb] {
+                        let sum = self.sum(keys, b);
+                        self.give(a, p.into_a * (sum * (heard[kb] * unheard[ka])));
+                    }
+                    if sounding[ka] {
+                        let sum = self.sum(keys, a);
+                        self.give(b, p.into_b * (sum * (heard[ka] * unheard[kb])));
+                    }
                 }
             }
         }
@@ -419,6 +451,10 @@ mod tests {
         for i in 0..24 {
             current.sympathy.trade(&mut current.keys, 1.0, 1.0, 1.0, 1e-6, i % crate::key::SYMPATHY_BLOCKS);
         }
-        println!("{} pairs: {:.1} us per block's share", current.sympathy.len(), t.elapsed().as_secs_f64() * 1e6 / 24.0);
+        println!(
+            "{} pairs: {:.1} us per block's share",
+            current.sympathy.len(),
+            t.elapsed().as_secs_f64() * 1e6 / 24.0
+        );
     }
 }

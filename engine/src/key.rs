@@ -1072,18 +1072,16 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             return;
         }
         let acc = &mut self.lanes[..out.len()];
-        acc.fill([0.0; LANES]);
         // The free strings' modes (and the phantom products) are gathered and
-        // advanced in one run; a string in play steps sample by sample.
+        // advanced in one run, which fills `acc`; a string in play steps sample
+        // by sample.
         let gather = &mut self.gather;
         gather.clear();
         for (s, at) in self.strings.iter_mut().zip(self.gathered.iter_mut()) {
             *at = None;
             if contact.is_none() && s.free_for(out) {
-                *at = s.bank().gather_free(s.audio(), gather);
-                if at.is_none() {
-                    s.accumulate_free(acc, &mut []);
-                }
+                // (With no room, which the room made for it rules out, it runs after the gathering.)
+                *at = Some(s.bank().gather_free(s.audio(), gather).unwrap_or(usize::MAX));
                 continue;
             }
             for (t, o) in out.iter_mut().enumerate() {
@@ -1095,23 +1093,21 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
         }
         let phantom = match (self.phantom_on, self.phantom.as_mut()) {
-            (true, Some(p)) => match p.gather_free(gather) {
-                Some(at) => Some(at),
-                None => {
-                    p.accumulate(acc);
-                    None
-                }
-            },
+            (true, Some(p)) => Some(p.gather_free(gather).unwrap_or(usize::MAX)),
             _ => None,
         };
-        gather.run(acc);
+        gather.run_fresh(acc);
         for (s, at) in self.strings.iter_mut().zip(&self.gathered) {
-            if let Some(at) = *at {
-                s.bank_mut().scatter_free(gather, at);
+            match *at {
+                Some(usize::MAX) => _ = s.accumulate_free(acc, &mut []),
+                Some(at) => s.bank_mut().scatter_free(gather, at),
+                None => {}
             }
         }
-        if let (Some(at), Some(p)) = (phantom, self.phantom.as_mut()) {
-            p.scatter_free(gather, at);
+        match (phantom, self.phantom.as_mut()) {
+            (Some(usize::MAX), Some(p)) => p.accumulate(acc),
+            (Some(at), Some(p)) => p.scatter_free(gather, at),
+            _ => {}
         }
         add_lane_sums(acc, out);
     }

@@ -669,6 +669,13 @@ impl FreeGather {
         free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);
     }
 
+    /// [`Self::run`], writing `acc` (zeros if nothing was gathered) instead of
+    /// adding to it.
+    pub fn run_fresh(&mut self, acc: &mut [[f64; LANES]]) {
+        let n = self.len;
+        free_block_into(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc, true);
+    }
+
     /// The state of the `n` modes taken at `at`, as they stand now.
     pub fn state(&self, at: usize, n: usize) -> (&[f64], &[f64]) {
         (&self.re[at..at + n], &self.im[at..at + n])
@@ -680,8 +687,23 @@ impl FreeGather {
 /// the multiply-add units busy through their latency (4 cycles, 2 units: 8).
 pub(crate) const CHAIN: usize = 4;
 
-#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+/// Advance `re`/`im` by their poles over `acc.len()` samples, adding each
+/// sample's bridge force to `acc` by lane.
 pub(crate) fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
+    free_block_into(re, im, pole_re, pole_im, acc, false);
+}
+
+/// [`free_block`], writing `acc` instead of adding to it when `fresh` (the
+/// same bits as adding to zeros: a sum of modes is never -0).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+pub(crate) fn free_block_into(
+    re: &mut [f64],
+    im: &mut [f64],
+    pole_re: &[f64],
+    pole_im: &[f64],
+    acc: &mut [[f64; LANES]],
+    fresh: bool,
+) {
     let (re, _) = re.as_chunks_mut::<LANES>();
     let (im, _) = im.as_chunks_mut::<LANES>();
     let (pr, _) = pole_re.as_chunks::<LANES>();
@@ -693,15 +715,22 @@ pub(crate) fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_i
     let (im_chains, _) = im_chains.as_chunks_mut::<CHAIN>();
     let (pr_chains, _) = pr[..whole].as_chunks::<CHAIN>();
     let (pi_chains, _) = pi[..whole].as_chunks::<CHAIN>();
+    let mut fresh = fresh;
     for (((zr, zi), pr), pi) in re_chains.iter_mut().zip(im_chains.iter_mut()).zip(pr_chains).zip(pi_chains) {
-        free_chain(zr, zi, pr, pi, acc);
+        if fresh {
+            free_chain::<CHAIN, true>(zr, zi, pr, pi, acc);
+            fresh = false;
+        } else {
+            free_chain::<CHAIN, false>(zr, zi, pr, pi, acc);
+        }
     }
     let (pr, pi) = (&pr[whole..], &pi[whole..]);
-    match re_rest.len() {
-        0 => {}
-        1 => free_rest::<1>(re_rest, im_rest, pr, pi, acc),
-        2 => free_rest::<2>(re_rest, im_rest, pr, pi, acc),
-        _ => free_rest::<3>(re_rest, im_rest, pr, pi, acc),
+    match (re_rest.len(), fresh) {
+        (0, true) => acc.fill([0.0; LANES]),
+        (0, false) => {}
+        (1, _) => free_rest::<1>(re_rest, im_rest, pr, pi, acc, fresh),
+        (2, _) => free_rest::<2>(re_rest, im_rest, pr, pi, acc, fresh),
+        _ => free_rest::<3>(re_rest, im_rest, pr, pi, acc, fresh),
     }
 }
 
@@ -713,18 +742,24 @@ fn free_rest<const G: usize>(
     pr: &[[f64; LANES]],
     pi: &[[f64; LANES]],
     acc: &mut [[f64; LANES]],
+    fresh: bool,
 ) {
     if let (Some(zr), Some(zi), Some(pr), Some(pi)) =
         (re.first_chunk_mut::<G>(), im.first_chunk_mut::<G>(), pr.first_chunk::<G>(), pi.first_chunk::<G>())
     {
-        free_chain::<G>(zr, zi, pr, pi, acc);
+        if fresh {
+            free_chain::<G, true>(zr, zi, pr, pi, acc);
+        } else {
+            free_chain::<G, false>(zr, zi, pr, pi, acc);
+        }
     }
 }
 
 /// `G` groups of modes over a block of samples, state in registers; each sample's
-/// bridge force is summed over the groups in order and then added to its accumulator.
+/// bridge force is summed over the groups in order and then added to its
+/// accumulator (written to it, if `WRITE`).
 #[inline(always)]
-fn free_chain<const G: usize>(
+fn free_chain<const G: usize, const WRITE: bool>(
     re: &mut [[f64; LANES]; G],
     im: &mut [[f64; LANES]; G],
     pr: &[[f64; LANES]; G],
@@ -744,7 +779,11 @@ fn free_chain<const G: usize>(
             }
         }
         for l in 0..LANES {
-            a[l] += sum[l];
+            if WRITE {
+                a[l] = sum[l];
+            } else {
+                a[l] += sum[l];
+            }
         }
     }
     *re = r;
@@ -905,6 +944,49 @@ mod tests {
                 assert!((q - exact).abs() < 1e-12 * (1.0 / (w * w)), "h={h} k={k} {q} {exact}");
             }
         }
+    }
+
+    #[test]
+    fn a_gathering_of_banks_gives_their_sums_and_writes_the_same_bits_as_it_adds() {
+        // Two strings gathered and run together turn their modes exactly as
+        // each alone, and a fresh run's written accumulator is the added one.
+        let (treble, other) = (treble_string(), one_mode(300.0));
+        let strings = [&treble, &other];
+        let steps: Vec<StepTable> = strings.iter().map(|s| StepTable::new(s, 1.0 / 48_000.0)).collect();
+        let mut banks: Vec<ModalBank> = strings.iter().map(|s| ModalBank::new(s)).collect();
+        for b in &mut banks {
+            for i in 0..b.len() {
+                b.add_velocity(i, (i as f64 + 0.5).cos());
+            }
+        }
+        let mut alone = banks.clone();
+        let mut added = vec![[0.0; LANES]; FREE_BLOCK];
+        for (b, step) in alone.iter_mut().zip(&steps) {
+            b.accumulate_free(step, &mut added);
+        }
+        let mut gather = FreeGather::with_room(banks.iter().map(|b| b.len().next_multiple_of(LANES)).sum());
+        let at: Vec<usize> = banks.iter().zip(&steps).map(|(b, step)| b.gather_free(step, &mut gather).unwrap()).collect();
+        let mut written = vec![[f64::NAN; LANES]; FREE_BLOCK];
+        gather.run_fresh(&mut written);
+        for ((b, at), a) in banks.iter_mut().zip(at).zip(&alone) {
+            b.scatter_free(&gather, at);
+            assert!(b.re.iter().zip(&a.re).chain(b.im.iter().zip(&a.im)).all(|(x, y)| x.to_bits() == y.to_bits()));
+        }
+        let sum = |acc: &[[f64; LANES]]| acc.iter().map(lane_sum).collect::<Vec<_>>();
+        let (one, together) = (sum(&added), sum(&written));
+        for (x, y) in one.iter().zip(&together) {
+            assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{x} against {y}");
+        }
+        let mut twice = vec![[0.0; LANES]; FREE_BLOCK];
+        let again = banks.clone();
+        let mut g2 = FreeGather::with_room(gather.re.len());
+        for (b, step) in again.iter().zip(&steps) {
+            b.gather_free(step, &mut g2).unwrap();
+        }
+        let mut fresh = vec![[f64::NAN; LANES]; FREE_BLOCK];
+        g2.clone().run_fresh(&mut fresh);
+        g2.run(&mut twice);
+        assert!(fresh.iter().flatten().zip(twice.iter().flatten()).all(|(x, y)| x.to_bits() == y.to_bits()));
     }
 
     #[test]

@@ -777,6 +777,7 @@ impl Synth {
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
         }
         let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
+        let mut heard = [0.0f32; CONTROL_BLOCK];
         for t in 0..n {
             // The glide arrives once within 1e-9 of its target (-180 dB): gliding on
             // toward silence for ever, the gain would make subnormal samples (and
@@ -786,8 +787,9 @@ impl Synth {
             let rr = self.dc[1].run(mix_r[t], r) * self.gain;
             left[t] = l as f32;
             right[t] = rr as f32;
-            self.scope.sample(0.5 * (l + rr) as f32);
+            heard[t] = 0.5 * (l + rr) as f32;
         }
+        self.scope.samples(&heard[..n]);
     }
 }
 

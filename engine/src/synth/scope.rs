@@ -215,10 +215,13 @@ impl ScopeWriter {
         }
     }
 
-    /// One output sample for the spectrum (dropped when the panel is not reading).
-    #[inline]
-    pub fn sample(&mut self, value: f32) {
-        self.since_strike = self.since_strike.saturating_add(1);
-        let _ = self.samples.push(value);
+    /// Output samples (mono) for the spectrum, handed over together (those
+    /// there is no room for are dropped: the panel is not reading).
+    pub fn samples(&mut self, values: &[f32]) {
+        self.since_strike = self.since_strike.saturating_add(values.len());
+        let n = values.len().min(self.samples.slots());
+        if let Ok(chunk) = self.samples.write_chunk_uninit(n) {
+            chunk.fill_from_iter(values.iter().copied());
+        }
     }
 }

@@ -227,6 +227,13 @@ pub(crate) struct Key {
     /// ([`FreeGather`]), and where each string's lie in it.
     gather: FreeGather,
     gathered: Vec<Option<usize>>,
+    /// Whether the gathering holds its free strings' (and products') state
+    /// now: it is taken once and run on over a control block's stretches,
+    /// and handed back ([`Key::settle`]) before anything else reads or moves
+    /// them. Which strings ran free, and where the products lie.
+    gather_live: bool,
+    free_now: Vec<bool>,
+    phantom_at: Option<usize>,
     /// Full scale per newton of bridge force.
     gain_per_n: f64,
     /// Where its strings bear on the bridge.
@@ -380,6 +387,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             midi_key: design.midi_key,
             gather: FreeGather::with_room(room),
             gathered: vec![None; strings.len()],
+            gather_live: false,
+            free_now: vec![false; strings.len()],
+            phantom_at: None,
             strings,
             notes,
             damper: Damper::new(design.damper),
@@ -436,6 +446,28 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.midi_key
     }
 
+    /// Hand its strings' (and products') state back from the gathering they
+    /// run in (see [`Self::render`]): each control block, and before anything
+    /// else reads or moves them. Allocates: no.
+    pub fn settle(&mut self) {
+        if !self.gather_live {
+            return;
+        }
+        self.gather_live = false;
+        for (s, at) in self.strings.iter_mut().zip(&self.gathered) {
+            if let Some(at) = *at
+                && at != usize::MAX
+            {
+                s.bank_mut().scatter_free(&self.gather, at);
+            }
+        }
+        if let (Some(at), Some(p)) = (self.phantom_at, self.phantom.as_mut())
+            && at != usize::MAX
+        {
+            p.scatter_free(&self.gather, at);
+        }
+    }
+
     /// Whether it is sounding: struck, and neither silent yet nor faded out.
     pub fn is_sounding(&self) -> bool {
         self.active
@@ -483,6 +515,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// Re(z e^(lambda t)) at output gain, as (z, lambda). The key is left silent. Allocates; for
     /// voicing the key through the body when the instrument is built.
     pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<Vec<(Complex64, Complex64)>> {
+        self.settle();
         self.press(0, touch, 0.0, 1.0, 1.0);
         for (b, chunk) in force.chunks_mut(CONTROL_BLOCK).enumerate() {
             chunk.fill(0.0);
@@ -492,6 +525,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
         }
         force.iter_mut().for_each(|f| *f *= self.gain_per_n);
+        self.settle();
         let gain = self.gain_per_n;
         let partials = self
             .strings
@@ -530,6 +564,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// The summed phasor of partial `partial` over `strings` (bit i: string i), N.
     #[inline]
     pub fn partial_sum(&self, strings: u8, partial: usize) -> Complex64 {
+        debug_assert!(!self.gather_live, "read while its strings run gathered");
         let mut sum = Complex64::new(0.0, 0.0);
         for (i, s) in self.strings.iter().enumerate() {
             if strings & (1 << i) != 0 && partial < s.bank().running() {
@@ -555,6 +590,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         bend: f64,
         silence: f64,
     ) -> bool {
+        self.settle();
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
         let felt = self.would_wake(delta, silence);
         if !self.active {
@@ -621,11 +657,13 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// The sostenuto pedal goes down: a sounding key held now stays up with it.
     pub fn catch_sostenuto(&mut self) {
+        self.settle();
         self.sostenuto = self.active && self.down();
     }
 
     /// The sostenuto pedal comes up.
     pub fn drop_sostenuto(&mut self) {
+        self.settle();
         self.sostenuto = false;
     }
 
@@ -687,6 +725,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// times as built. A touch in the other unit than the note's exciter is
     /// ignored.
     pub fn press(&mut self, note: usize, touch: Touch, una_corda: f64, hardness: f64, bend: f64) {
+        self.settle();
         let Some(played) = self.notes.get(note) else { return };
         let fits = match played.exciter {
             ExciterDesign::Pluck { .. } => matches!(touch, Touch::PluckHeight { .. }),
@@ -771,6 +810,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Note `note` comes up at release `velocity` (0..=1), the sustain pedal at `sustain`.
     pub fn release(&mut self, note: usize, velocity: f64, sustain: f64) {
+        self.settle();
         let bit = 1u32 << note;
         if self.held & bit == 0 {
             return;
@@ -803,6 +843,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Every note of the course comes up, the sustain pedal at `sustain`.
     pub fn release_all(&mut self, sustain: f64) {
+        self.settle();
         for note in 0..self.notes.len() {
             self.release(note, 0.5, sustain);
         }
@@ -834,6 +875,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// the sostenuto pedal); a silent key starts to sound, its damper where
     /// `sustain` has it and its pitch bent by `bend`. Allocates: no.
     pub fn lift_damper(&mut self, sustain: f64, bend: f64) {
+        self.settle();
         if self.noise.pedal <= 0.0 || !self.on_body || !self.damper.exists() || self.down() || self.sostenuto {
             return;
         }
@@ -877,6 +919,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// go of hammers that have flown off, and notice silence. Returns true when the
     /// key has just fallen silent (it is then inactive and at rest).
     pub fn control(&mut self, block_s: f64, sustain: f64, bend: f64, silence: f64) -> bool {
+        self.settle();
         if self.fade <= 0.0 {
             // Faded out (stolen, reset, or its instrument replaced).
             self.silence();
@@ -958,6 +1001,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// computes are left alone, and a mode at rest takes its share only if it
     /// is over `floor_n`. Allocates: no.
     fn trade_through_bridge(&mut self, floor_n: f64) {
+        self.settle();
         if self.unison.is_empty() {
             return;
         }
@@ -994,6 +1038,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// At rest and inactive (the notes struck are kept for [`Self::take_sounded`]).
     pub fn silence(&mut self) {
+        self.settle();
         for s in &mut self.strings {
             s.silence();
         }
@@ -1071,17 +1116,32 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             self.render_coupled(out, contact);
             return;
         }
-        let acc = &mut self.lanes[..out.len()];
+        // Which strings turn freely over this stretch (a resting tangent's lift
+        // goes to `out`); the others step sample by sample.
+        for (s, free) in self.strings.iter_mut().zip(self.free_now.iter_mut()) {
+            *free = contact.is_none() && s.free_for(out);
+        }
+        if self.gather_live && self.free_now.iter().zip(&self.gathered).any(|(f, at)| *f != at.is_some()) {
+            self.settle();
+        }
         // The free strings' modes (and the phantom products) are gathered and
-        // advanced in one run, which fills `acc`; a string in play steps sample
-        // by sample.
-        let gather = &mut self.gather;
-        gather.clear();
-        for (s, at) in self.strings.iter_mut().zip(self.gathered.iter_mut()) {
-            *at = None;
-            if contact.is_none() && s.free_for(out) {
-                // (With no room, which the room made for it rules out, it runs after the gathering.)
-                *at = Some(s.bank().gather_free(s.audio(), gather).unwrap_or(usize::MAX));
+        // run together, which fills `acc`; the gathering holds them until the
+        // key is settled, so a control block cut into stretches runs as one.
+        if !self.gather_live {
+            let gather = &mut self.gather;
+            gather.clear();
+            for ((s, free), at) in self.strings.iter().zip(&self.free_now).zip(self.gathered.iter_mut()) {
+                // (With no room, which the room made for it rules out, it runs alone.)
+                *at = free.then(|| s.bank().gather_free(s.audio(), gather).unwrap_or(usize::MAX));
+            }
+            self.phantom_at = match (self.phantom_on, self.phantom.as_ref()) {
+                (true, Some(p)) => Some(p.gather_free(gather).unwrap_or(usize::MAX)),
+                _ => None,
+            };
+            self.gather_live = true;
+        }
+        for (s, free) in self.strings.iter_mut().zip(&self.free_now) {
+            if *free {
                 continue;
             }
             for (t, o) in out.iter_mut().enumerate() {
@@ -1092,22 +1152,15 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 }
             }
         }
-        let phantom = match (self.phantom_on, self.phantom.as_mut()) {
-            (true, Some(p)) => Some(p.gather_free(gather).unwrap_or(usize::MAX)),
-            _ => None,
-        };
-        gather.run_fresh(acc);
+        let acc = &mut self.lanes[..out.len()];
+        self.gather.run_fresh(acc);
         for (s, at) in self.strings.iter_mut().zip(&self.gathered) {
-            match *at {
-                Some(usize::MAX) => _ = s.accumulate_free(acc, &mut []),
-                Some(at) => s.bank_mut().scatter_free(gather, at),
-                None => {}
+            if *at == Some(usize::MAX) {
+                s.accumulate_free(acc, &mut []);
             }
         }
-        match (phantom, self.phantom.as_mut()) {
-            (Some(usize::MAX), Some(p)) => p.accumulate(acc),
-            (Some(at), Some(p)) => p.scatter_free(gather, at),
-            _ => {}
+        if let (Some(usize::MAX), Some(p)) = (self.phantom_at, self.phantom.as_mut()) {
+            p.accumulate(acc);
         }
         add_lane_sums(acc, out);
     }
@@ -1153,6 +1206,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Take over a ringing key of the same instrument whose tables were rebuilt.
     pub fn take_over(&mut self, old: &mut Key, bend: f64) {
+        self.settle();
+        old.settle();
         for (new, old) in self.strings.iter_mut().zip(old.strings.iter_mut()) {
             new.take_motion_from(old);
         }

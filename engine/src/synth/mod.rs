@@ -715,6 +715,11 @@ impl Synth {
     }
 
     fn control(&mut self, time: u32) {
+        // Every key's strings handed back from their gathered runs before
+        // anything reads them.
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            instrument.keys.iter_mut().flatten().for_each(Key::settle);
+        }
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
         let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());

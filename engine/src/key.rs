@@ -657,13 +657,11 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// The sostenuto pedal goes down: a sounding key held now stays up with it.
     pub fn catch_sostenuto(&mut self) {
-        self.settle();
         self.sostenuto = self.active && self.down();
     }
 
     /// The sostenuto pedal comes up.
     pub fn drop_sostenuto(&mut self) {
-        self.settle();
         self.sostenuto = false;
     }
 

@@ -663,7 +663,9 @@ impl FreeGather {
 
     /// Advance every gathered mode over `acc.len()` samples, adding the bridge
     /// force to `acc` by lane. The order of the gathering sets the order of the
-    /// sums: the same gathering gives the same bits.
+    /// sums: the same gathering gives the same bits. (The synth writes with
+    /// [`Self::run_fresh`]; this is what it is checked against.)
+    #[cfg(test)]
     pub fn run(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.len;
         free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);

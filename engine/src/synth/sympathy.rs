@@ -337,13 +337,13 @@ impl Sympathy {
             if take.re == 0.0 && take.im == 0.0 {
                 continue;
             }
-            let given = self.carried(i) + take * level;
+            let drive = self.carried(i) + take * level;
             let slot = self.slots[i];
             let Some(Some(key)) = keys.get_mut(slot.key as usize) else { continue };
-            if key.drive_partial(slot.strings, slot.partial as usize, given, sustain, bend, silence) {
+            if key.drive_partial(slot.strings, slot.partial as usize, drive, sustain, bend, silence) {
                 self.held[i] = Complex64::new(0.0, 0.0);
             } else if key.rings_free(sustain) {
-                self.hold(i, given);
+                self.hold(i, drive);
             } else {
                 self.held[i] = Complex64::new(0.0, 0.0);
             }
@@ -366,7 +366,8 @@ impl Sympathy {
         *t += z;
     }
 
-    /// Slot `i`'s held drive carried on to this block by its pole.
+    /// Slot `i`'s held drive carried on to this block by its pole (as built,
+    /// unbent, like the pairs' answers: the trade does not follow a bend).
     fn carried(&self, i: usize) -> Complex64 {
         let z = self.held[i];
         if z.re == 0.0 && z.im == 0.0 {

@@ -97,7 +97,7 @@ pub fn install(command: &'static str) {
         for dir in l.dirs.iter().rev() {
             let _ = std::fs::remove_dir(dir);
         }
-        eprintln!("{command}: interrupted; nothing was written");
+        eprintln!("{command}: {}", crate::cli::INTERRUPTED);
         std::process::exit(i32::from(EXIT_INTERRUPTED));
     });
 }

@@ -169,8 +169,9 @@ fn a_strike_chart_takes_a_bounded_number_of_strikes() {
     let case = dir.path().join("case.json");
     std::fs::write(&case, SANTOOR_CASE).unwrap();
     let speeds = vec!["1"; 100].join(",");
-    let out = text(&dir.path().join("charts"));
+    let out = text(&dir.path().join("new").join("deeper").join("charts"));
     refused(&struck(&["chart", "strike", &text(&case), "--out", &out, "--speeds", &speeds]), "at most 64");
+    assert!(!dir.path().join("new").exists(), "the folders made for the refused chart are gone");
 }
 
 #[test]

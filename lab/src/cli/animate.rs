@@ -93,13 +93,15 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
         return Err(Failure::bad_input(format!("--periods: must lie above 0 and at most 100 (got {})", args.periods)));
     }
     super::output::check_writable(&args.out, &[args.case.as_path()])?;
-    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .map_err(|e| Failure::failed(format!("{}: cannot create: {e}", parent.display())))?;
-    }
     let title = case.name.clone().unwrap_or_else(|| args.case.display().to_string());
-    draw_film(&case, args.periods, &title, &FilmOptions { frames: args.frames }, &args.out)
-        .map_err(|e| Failure::failed(format!("{e:#}")))?;
+    // Drawn beside --out and put there once whole (folders made for it are
+    // removed if it fails).
+    let mut staged = super::output::Staged::reading(&[args.case.as_path()]);
+    staged.write_at(&args.out, |gif| {
+        draw_film(&case, args.periods, &title, &FilmOptions { frames: args.frames }, gif)
+            .map_err(|e| std::io::Error::other(format!("{e:#}")))
+    })?;
+    staged.commit()?;
     println!("wrote {}", args.out.display());
     Ok(())
 }

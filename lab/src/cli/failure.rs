@@ -14,6 +14,9 @@ pub struct Failure {
     pub message: String,
 }
 
+/// What a command interrupted by a stop signal says.
+pub const INTERRUPTED: &str = "interrupted; nothing was written";
+
 impl Failure {
     pub fn bad_input(message: impl Into<String>) -> Self {
         Self { status: EXIT_BAD_INPUT, message: message.into() }
@@ -21,6 +24,11 @@ impl Failure {
 
     pub fn failed(message: impl Into<String>) -> Self {
         Self { status: EXIT_FAILURE, message: message.into() }
+    }
+
+    /// A stop signal came (see [`crate::cleanup`]): nothing was written.
+    pub fn interrupted() -> Self {
+        Self { status: crate::cleanup::EXIT_INTERRUPTED, message: INTERRUPTED.into() }
     }
 
     /// The message as one printable line: control characters (a file's own

@@ -18,7 +18,7 @@ pub mod input;
 pub mod output;
 pub mod room;
 
-pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure, printable, shown};
+pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure, INTERRUPTED, printable, shown};
 
 use std::process::ExitCode;
 

@@ -133,6 +133,12 @@ impl Staged {
         Ok(())
     }
 
+    /// Write one file by having `draw` write it at the path it is given (a
+    /// temporary one beside `path`).
+    pub fn write_at(&mut self, path: &Path, draw: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+        self.stage(path, draw)
+    }
+
     /// Write one file through `fill`.
     pub fn write(
         &mut self,
@@ -263,19 +269,28 @@ impl Drop for Staged {
 /// is removed with whatever is left in it, also on a stop signal.
 pub struct StagedFolder {
     path: PathBuf,
+    /// Folders made for it that were missing, outermost first: removed with
+    /// it if nothing was put in them.
+    made: Vec<PathBuf>,
 }
 
 impl StagedFolder {
-    /// A new, empty folder beside `out` (its parent made if missing).
+    /// A new, empty folder beside `out` (the folders it lies in made if missing).
     pub fn beside(out: &Path) -> Result<Self, Failure> {
         let name = format!(".struck-{}-{}.part", std::process::id(), out.file_name().map_or(0, |n| n.len()));
-        let path = out.with_file_name(name);
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty() && !p.exists()) {
-            fs::create_dir_all(parent).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(parent))))?;
+        let mut staged = Self { path: out.with_file_name(name), made: Vec::new() };
+        if let Some(parent) = staged.path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            let missing: Vec<PathBuf> =
+                parent.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf).collect();
+            for d in missing.into_iter().rev() {
+                fs::create_dir(&d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&d))))?;
+                cleanup::track_dir(&d);
+                staged.made.push(d);
+            }
         }
-        fs::create_dir(&path).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&path))))?;
-        cleanup::track_tree(&path);
-        Ok(Self { path })
+        fs::create_dir(&staged.path).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&staged.path))))?;
+        cleanup::track_tree(&staged.path);
+        Ok(staged)
     }
 
     /// Where to draw.
@@ -303,6 +318,11 @@ impl Drop for StagedFolder {
     fn drop(&mut self) {
         let _ = fs::remove_dir_all(&self.path);
         cleanup::forget(&self.path);
+        // A made folder the output went into is kept (it is not empty).
+        for d in self.made.iter().rev() {
+            let _ = fs::remove_dir(d);
+            cleanup::forget(d);
+        }
     }
 }
 

@@ -26,7 +26,6 @@ use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
 use super::output::Staged;
-use crate::cleanup::EXIT_INTERRUPTED;
 use crate::cli::Failure;
 use crate::midi_file::{self, ReadOptions};
 
@@ -172,7 +171,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
     })?;
     if crate::cleanup::interrupted() {
-        return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
+        return Err(Failure::interrupted());
     }
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
     synth.set_controls(controls);
@@ -229,7 +228,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         bar.finish_and_clear();
     }
     if crate::cleanup::interrupted() {
-        return Err(Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() });
+        return Err(Failure::interrupted());
     }
     if let Some(sample) = non_finite {
         return Err(Failure::failed(format!(
@@ -332,7 +331,6 @@ fn check_block_size(n: i64) -> Result<usize, Failure> {
     }
 }
 
-/// Whether two paths name the same existing file.
 /// The preset's tuning with the tuning flags laid over it, checked.
 fn tuning(args: &RenderArgs, preset: &TuningSettings) -> Result<TuningSettings, Failure> {
     let mut tuning = preset.clone();

@@ -6,7 +6,6 @@ use std::path::PathBuf;
 use crate::strike::{self, LabRun};
 
 use super::output::{Staged, csv_field};
-use crate::cleanup::EXIT_INTERRUPTED;
 use crate::cli::Failure;
 
 #[derive(clap::Args)]
@@ -41,12 +40,9 @@ const MAX_WAV_GAIN_DB: f64 = 200.0;
 /// Bytes a row of trace.csv takes at most: five numbers in shortest form.
 const CSV_BYTES_PER_ROW: u64 = 5 * 24 + 1;
 
-fn interrupted() -> Failure {
-    Failure { status: EXIT_INTERRUPTED, message: "interrupted; nothing was written".into() }
-}
 
 fn stop_if_interrupted() -> Result<(), Failure> {
-    if crate::cleanup::interrupted() { Err(interrupted()) } else { Ok(()) }
+    if crate::cleanup::interrupted() { Err(Failure::interrupted()) } else { Ok(()) }
 }
 
 /// The dotted name of the first null in `value` (where a non-finite number
@@ -93,7 +89,7 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     let rows = case.sample_count() as u64;
     let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
     super::room::check(&format!("{shown} ({rows} samples)"), strike::run::peak_bytes(&case), disk, &args.out)?;
-    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).ok_or_else(interrupted)?;
+    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).ok_or_else(Failure::interrupted)?;
     check_finite(&result)?;
     check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
 
@@ -113,7 +109,7 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         write_trace(w, &result)?;
         stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
     })
-    .map_err(|e| if crate::cleanup::interrupted() { interrupted() } else { e })?;
+    .map_err(|e| if crate::cleanup::interrupted() { Failure::interrupted() } else { e })?;
     let mut wav_note = String::new();
     if let Some(wav) = &args.wav {
         let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -458,7 +458,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             if let Some(at) = *at
                 && at != usize::MAX
             {
-                s.bank_mut().scatter_free(&self.gather, at);
+                s.scatter_free(&self.gather, at);
             }
         }
         if let (Some(at), Some(p)) = (self.phantom_at, self.phantom.as_mut())

@@ -38,7 +38,7 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 
-use crate::modal_bank::{FreeGather, LANES, free_block};
+use crate::modal_bank::{FreeGather, LANES, Poles, free_block, inverse};
 use crate::string::StringModes;
 use crate::struck_string::StruckString;
 
@@ -150,6 +150,10 @@ pub struct Phantom {
     im: Vec<f64>,
     pole_re: Vec<f64>,
     pole_im: Vec<f64>,
+    /// Each pole's inverse, for a gathering ([`crate::modal_bank::inverse`]).
+    back_re: Vec<f64>,
+    back_im: Vec<f64>,
+    back_inv: Vec<f64>,
     /// Products in play this block (the arrays are zero past them, to the next group).
     running: usize,
     /// Scratch for choosing the strongest: size, product, phasor.
@@ -161,7 +165,18 @@ impl Phantom {
     pub fn new(table: PhantomTable) -> Self {
         let n = table.len().min(MOST_PRODUCTS).next_multiple_of(LANES);
         let found = vec![(0.0, 0, Complex64::new(0.0, 0.0)); table.len()];
-        Self { table, re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], running: 0, found }
+        Self {
+            table,
+            re: vec![0.0; n],
+            im: vec![0.0; n],
+            pole_re: vec![0.0; n],
+            pole_im: vec![0.0; n],
+            back_re: vec![0.0; n],
+            back_im: vec![0.0; n],
+            back_inv: vec![0.0; n],
+            running: 0,
+            found,
+        }
     }
 
     /// At a control block: set every product from `strings`' phasors at
@@ -198,12 +213,21 @@ impl Phantom {
                 let (n, m, _) = self.table.pairs[k];
                 let pole = lead.pole(n as usize) * lead.pole(m as usize);
                 (self.re[i], self.im[i], self.pole_re[i], self.pole_im[i]) = (z.re, z.im, pole.re, pole.im);
+                (self.back_re[i], self.back_im[i], self.back_inv[i]) = inverse(pole.re, pole.im);
             }
             self.running = kept;
         }
         // Clear what the last block left past this one's products.
         let (from, to) = (self.running, before.max(self.running).next_multiple_of(LANES).min(self.re.len()));
-        for v in [&mut self.re, &mut self.im, &mut self.pole_re, &mut self.pole_im] {
+        for v in [
+            &mut self.re,
+            &mut self.im,
+            &mut self.pole_re,
+            &mut self.pole_im,
+            &mut self.back_re,
+            &mut self.back_im,
+            &mut self.back_inv,
+        ] {
             v[from..to].fill(0.0);
         }
         self.running > 0
@@ -220,15 +244,19 @@ impl Phantom {
     /// [`crate::modal_bank::FreeGather`]); where they lie, or None without room.
     pub fn gather_free(&self, gather: &mut FreeGather) -> Option<usize> {
         let n = self.running.next_multiple_of(LANES).min(self.re.len());
-        gather.take(&self.re[..n], &self.im[..n], &self.pole_re[..n], &self.pole_im[..n])
+        let poles = Poles {
+            re: &self.pole_re[..n],
+            im: &self.pole_im[..n],
+            back_re: &self.back_re[..n],
+            back_im: &self.back_im[..n],
+        };
+        gather.take(&self.re[..n], &self.im[..n], poles)
     }
 
     /// Take back the products' state from `gather` after it has run.
     pub fn scatter_free(&mut self, gather: &FreeGather, at: usize) {
         let n = self.running.next_multiple_of(LANES).min(self.re.len());
-        let (re, im) = gather.state(at, n);
-        self.re[..n].copy_from_slice(re);
-        self.im[..n].copy_from_slice(im);
+        gather.give_back(at, &mut self.re[..n], &mut self.im[..n], &self.back_re[..n], &self.back_inv[..n]);
     }
 
     /// Room the products need in a gathering.
@@ -239,7 +267,15 @@ impl Phantom {
     /// Forget the products in play.
     pub fn silence(&mut self) {
         self.running = 0;
-        for v in [&mut self.re, &mut self.im, &mut self.pole_re, &mut self.pole_im] {
+        for v in [
+            &mut self.re,
+            &mut self.im,
+            &mut self.pole_re,
+            &mut self.pole_im,
+            &mut self.back_re,
+            &mut self.back_im,
+            &mut self.back_inv,
+        ] {
             v.fill(0.0);
         }
     }

@@ -19,7 +19,7 @@ use crate::exciter::hammer::{Hammer, HammerRig, HammerSpec, Substep};
 use crate::exciter::pluck::{PluckRig, PluckSpec};
 use crate::exciter::tangent::{TangentMotion, TangentRig, TangentSpec};
 pub use crate::exciter::{ContactObserver, Tick};
-use crate::modal_bank::{LANES, ModalBank, StepTable};
+use crate::modal_bank::{FreeGather, LANES, ModalBank, StepTable};
 use crate::string::StringModes;
 
 /// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
@@ -354,6 +354,12 @@ impl StruckString {
             return true;
         }
         !self.exciter.in_play()
+    }
+
+    /// Take back its modes' state from `gather`, where they were gathered at
+    /// `at` with [`Self::audio`] ([`ModalBank::scatter_free`]).
+    pub fn scatter_free(&mut self, gather: &FreeGather, at: usize) {
+        self.bank.scatter_free(&self.audio, gather, at);
     }
 
     /// The audio rate's step of its modes.

@@ -83,6 +83,11 @@ pub struct StepTable {
     pub step_s: f64,
     pole_re: Vec<f64>,
     pole_im: Vec<f64>,
+    /// Each pole's inverse 1/p and the inverse of its imaginary part: how a
+    /// gathering turns a phasor into two samples and back ([`FreeGather`]).
+    back_re: Vec<f64>,
+    back_im: Vec<f64>,
+    back_inv: Vec<f64>,
     /// Response of the unscaled state z to a unit modal acceleration at the start
     /// of the step falling linearly to zero at its end.
     start: Vec<Complex64>,
@@ -97,6 +102,9 @@ impl StepTable {
             step_s,
             pole_re: vec![1.0; n],
             pole_im: vec![0.0; n],
+            back_re: vec![1.0; n],
+            back_im: vec![0.0; n],
+            back_inv: vec![0.0; n],
             start: vec![Complex64::new(0.0, 0.0); n],
             end: vec![Complex64::new(0.0, 0.0); n],
         };
@@ -109,6 +117,7 @@ impl StepTable {
             let (sin, cos) = (omega_d * step_s).sin_cos();
             table.pole_re[i] = radius * cos;
             table.pole_im[i] = radius * sin;
+            (table.back_re[i], table.back_im[i], table.back_inv[i]) = inverse(table.pole_re[i], table.pole_im[i]);
             let (phi1, phi2) = phi12(x);
             let to_state = Complex64::new(0.0, -1.0 / omega_d);
             table.start[i] = to_state * step_s * (phi1 - phi2);
@@ -131,7 +140,20 @@ impl StepTable {
         let (sin, cos) = (omega_rad_s * self.step_s).sin_cos();
         self.pole_re[index] = radius * cos;
         self.pole_im[index] = radius * sin;
+        (self.back_re[index], self.back_im[index], self.back_inv[index]) = inverse(self.pole_re[index], self.pole_im[index]);
     }
+}
+
+/// A pole p's inverse 1/p (re, im) and 1 / Im(1/p), as a [`FreeGather`] needs
+/// them. A real pole (a padding lane's, or a product of nothing) has no
+/// imaginary part to recover: 0 there, and its phasor comes back real.
+pub(crate) fn inverse(pole_re: f64, pole_im: f64) -> (f64, f64, f64) {
+    let norm = pole_re * pole_re + pole_im * pole_im;
+    if norm == 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let (re, im) = (pole_re / norm, -pole_im / norm);
+    (re, im, if im == 0.0 { 0.0 } else { 1.0 / im })
 }
 
 /// How an exciter's input is held over a step.
@@ -523,16 +545,15 @@ impl ModalBank {
     /// advanced freely there; returns where they lie, or None without room.
     pub fn gather_free(&self, step: &StepTable, gather: &mut FreeGather) -> Option<usize> {
         let n = self.running;
-        gather.take(&self.re[..n], &self.im[..n], &step.pole_re[..n], &step.pole_im[..n])
+        let poles = Poles { re: &step.pole_re[..n], im: &step.pole_im[..n], back_re: &step.back_re[..n], back_im: &step.back_im[..n] };
+        gather.take(&self.re[..n], &self.im[..n], poles)
     }
 
     /// Take back its running modes' state from `gather`, where
-    /// [`Self::gather_free`] put them, after the gathering has run.
-    pub fn scatter_free(&mut self, gather: &FreeGather, at: usize) {
+    /// [`Self::gather_free`] put them with `step`, after the gathering has run.
+    pub fn scatter_free(&mut self, step: &StepTable, gather: &FreeGather, at: usize) {
         let n = self.running;
-        let (re, im) = gather.state(at, n);
-        self.re[..n].copy_from_slice(re);
-        self.im[..n].copy_from_slice(im);
+        gather.give_back(at, &mut self.re[..n], &mut self.im[..n], &step.back_re[..n], &step.back_inv[..n]);
     }
 
     /// One driven step: every mode advances by `step` with the previous step's
@@ -620,16 +641,34 @@ fn lane_sum_all(values: &[f64]) -> f64 {
     lane_sum(&acc)
 }
 
+/// Modes' poles as a [`FreeGather`] takes them: each pole and its inverse
+/// ([`inverse`]).
+pub struct Poles<'a> {
+    pub re: &'a [f64],
+    pub im: &'a [f64],
+    pub back_re: &'a [f64],
+    pub back_im: &'a [f64],
+}
+
 /// The free modes of several banks gathered into one run of the free loop,
 /// so that a key's few-mode treble strings fill its chains together (each
 /// bank alone would leave the multiply-add units waiting on one short chain).
+///
+/// A gathered mode runs in real form: the real part x of its phasor z obeys
+/// x_(n+1) = 2 Re(p) x_n - |p|^2 x_(n-1), one multiply and one multiply-add a
+/// step where turning z by p takes two of each, and x is what the bridge
+/// feels. It is taken as (x_n, x_(n-1)) = (Re z, Re(z / p)) and given back as
+/// z = x_n + i (x_n Re(1/p) - x_(n-1)) / Im(1/p), exact but for rounding
+/// (relative 1e-16 over the sine of the pole's angle: 3e-14 for the lowest
+/// piano string, each control block).
 /// Holds room for a fixed number of modes: nothing allocates once made.
 #[derive(Clone, Debug, Default)]
 pub struct FreeGather {
-    re: Vec<f64>,
-    im: Vec<f64>,
-    pole_re: Vec<f64>,
-    pole_im: Vec<f64>,
+    /// x_n and x_(n-1) of each mode, and its recursion's 2 Re(p) and -|p|^2.
+    now: Vec<f64>,
+    before: Vec<f64>,
+    twice_re: Vec<f64>,
+    minus_norm: Vec<f64>,
     len: usize,
 }
 
@@ -637,7 +676,7 @@ impl FreeGather {
     /// Room for `modes` modes (each bank's padded count). Allocates.
     pub fn with_room(modes: usize) -> Self {
         let n = padded(modes);
-        Self { re: vec![0.0; n], im: vec![0.0; n], pole_re: vec![0.0; n], pole_im: vec![0.0; n], len: 0 }
+        Self { now: vec![0.0; n], before: vec![0.0; n], twice_re: vec![0.0; n], minus_norm: vec![0.0; n], len: 0 }
     }
 
     /// Start a new gathering.
@@ -645,20 +684,34 @@ impl FreeGather {
         self.len = 0;
     }
 
-    /// Add `n` modes (a multiple of [`LANES`]) with their poles; returns where
-    /// they lie, or None when there is no room (nothing taken).
-    pub fn take(&mut self, re: &[f64], im: &[f64], pole_re: &[f64], pole_im: &[f64]) -> Option<usize> {
+    /// Add the modes with phasors `re` + i `im` (as many as a multiple of
+    /// [`LANES`]) turning by `poles`; returns where they lie, or None when
+    /// there is no room (nothing taken).
+    pub fn take(&mut self, re: &[f64], im: &[f64], poles: Poles) -> Option<usize> {
         let (at, n) = (self.len, re.len());
         debug_assert_eq!(n % LANES, 0);
-        if at + n > self.re.len() {
+        if at + n > self.now.len() {
             return None;
         }
-        self.re[at..at + n].copy_from_slice(re);
-        self.im[at..at + n].copy_from_slice(im);
-        self.pole_re[at..at + n].copy_from_slice(pole_re);
-        self.pole_im[at..at + n].copy_from_slice(pole_im);
+        let to = at..at + n;
+        self.now[to.clone()].copy_from_slice(re);
+        to_real_form(
+            (&mut self.before[to.clone()], &mut self.twice_re[to.clone()], &mut self.minus_norm[to]),
+            re,
+            im,
+            &poles,
+        );
         self.len = at + n;
         Some(at)
+    }
+
+    /// Write the phasors of the modes taken at `at` as they stand now into
+    /// `re` + i `im`, with their poles' `back_re` and `back_inv` ([`inverse`]).
+    pub fn give_back(&self, at: usize, re: &mut [f64], im: &mut [f64], back_re: &[f64], back_inv: &[f64]) {
+        let n = re.len();
+        let (now, before) = (&self.now[at..at + n], &self.before[at..at + n]);
+        re.copy_from_slice(now);
+        from_real_form(im, now, before, back_re, back_inv);
     }
 
     /// Advance every gathered mode over `acc.len()` samples, adding the bridge
@@ -668,20 +721,142 @@ impl FreeGather {
     #[cfg(test)]
     pub fn run(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.len;
-        free_block(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc);
+        real_block_into(&mut self.now[..n], &mut self.before[..n], &self.twice_re[..n], &self.minus_norm[..n], acc, false);
     }
 
     /// [`Self::run`], writing `acc` (zeros if nothing was gathered) instead of
     /// adding to it.
     pub fn run_fresh(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.len;
-        free_block_into(&mut self.re[..n], &mut self.im[..n], &self.pole_re[..n], &self.pole_im[..n], acc, true);
+        real_block_into(&mut self.now[..n], &mut self.before[..n], &self.twice_re[..n], &self.minus_norm[..n], acc, true);
     }
+}
 
-    /// The state of the `n` modes taken at `at`, as they stand now.
-    pub fn state(&self, at: usize, n: usize) -> (&[f64], &[f64]) {
-        (&self.re[at..at + n], &self.im[at..at + n])
+/// The older sample and the recursion's coefficients of modes with phasors
+/// `re` + i `im` turning by `poles` ([`FreeGather::take`]).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn to_real_form(
+    (before, twice_re, minus_norm): (&mut [f64], &mut [f64], &mut [f64]),
+    re: &[f64],
+    im: &[f64],
+    poles: &Poles,
+) {
+    let rows = before.iter_mut().zip(twice_re.iter_mut()).zip(minus_norm.iter_mut());
+    let from = re.iter().zip(im).zip(poles.re).zip(poles.im).zip(poles.back_re).zip(poles.back_im);
+    for (((b, t), m), (((((&r, &i), &pr), &pi), &qr), &qi)) in rows.zip(from) {
+        *b = r * qr - i * qi;
+        *t = 2.0 * pr;
+        *m = -(pr * pr + pi * pi);
     }
+}
+
+/// The imaginary parts of phasors in real form ([`FreeGather::give_back`]).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn from_real_form(im: &mut [f64], now: &[f64], before: &[f64], back_re: &[f64], back_inv: &[f64]) {
+    for ((((i, &x), &y), &qr), &inv) in im.iter_mut().zip(now).zip(before).zip(back_re).zip(back_inv) {
+        *i = (x * qr - y) * inv;
+    }
+}
+
+/// Gathered modes in real form ([`FreeGather`]) over `acc.len()` samples,
+/// adding (or, if `fresh`, writing) each sample's bridge force to `acc` by lane.
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn real_block_into(
+    now: &mut [f64],
+    before: &mut [f64],
+    twice_re: &[f64],
+    minus_norm: &[f64],
+    acc: &mut [[f64; LANES]],
+    fresh: bool,
+) {
+    let (now, _) = now.as_chunks_mut::<LANES>();
+    let (before, _) = before.as_chunks_mut::<LANES>();
+    let (a, _) = twice_re.as_chunks::<LANES>();
+    let (b, _) = minus_norm.as_chunks::<LANES>();
+    let whole = now.len() / CHAIN * CHAIN;
+    let mut fresh = fresh;
+    let mut g = 0;
+    while g < whole {
+        let to = g + CHAIN;
+        if let (Some(x), Some(y), Some(a), Some(b)) = (
+            now[g..to].first_chunk_mut::<CHAIN>(),
+            before[g..to].first_chunk_mut::<CHAIN>(),
+            a[g..to].first_chunk::<CHAIN>(),
+            b[g..to].first_chunk::<CHAIN>(),
+        ) {
+            if fresh {
+                real_chain::<CHAIN, true>(x, y, a, b, acc);
+            } else {
+                real_chain::<CHAIN, false>(x, y, a, b, acc);
+            }
+            fresh = false;
+        }
+        g = to;
+    }
+    let (x, y, a, b) = (&mut now[whole..], &mut before[whole..], &a[whole..], &b[whole..]);
+    match (x.len(), fresh) {
+        (0, true) => acc.fill([0.0; LANES]),
+        (0, false) => {}
+        (1, _) => real_rest::<1>(x, y, a, b, acc, fresh),
+        (2, _) => real_rest::<2>(x, y, a, b, acc, fresh),
+        _ => real_rest::<3>(x, y, a, b, acc, fresh),
+    }
+}
+
+/// The last `G` groups (fewer than a chain) in real form over a block.
+#[inline(always)]
+fn real_rest<const G: usize>(
+    now: &mut [[f64; LANES]],
+    before: &mut [[f64; LANES]],
+    a: &[[f64; LANES]],
+    b: &[[f64; LANES]],
+    acc: &mut [[f64; LANES]],
+    fresh: bool,
+) {
+    if let (Some(x), Some(y), Some(a), Some(b)) =
+        (now.first_chunk_mut::<G>(), before.first_chunk_mut::<G>(), a.first_chunk::<G>(), b.first_chunk::<G>())
+    {
+        if fresh {
+            real_chain::<G, true>(x, y, a, b, acc);
+        } else {
+            real_chain::<G, false>(x, y, a, b, acc);
+        }
+    }
+}
+
+/// `G` groups in real form over a block, state in registers; each sample's
+/// bridge force is summed over the groups in order and then added to its
+/// accumulator (written to it, if `WRITE`). The multiply by the older sample
+/// is off the chain of dependent operations: one multiply-add a step on it.
+#[inline(always)]
+fn real_chain<const G: usize, const WRITE: bool>(
+    now: &mut [[f64; LANES]; G],
+    before: &mut [[f64; LANES]; G],
+    twice_re: &[[f64; LANES]; G],
+    minus_norm: &[[f64; LANES]; G],
+    acc: &mut [[f64; LANES]],
+) {
+    let (mut x, mut y) = (*now, *before);
+    for out in acc.iter_mut() {
+        let mut sum = [0.0; LANES];
+        for g in 0..G {
+            for l in 0..LANES {
+                let next = twice_re[g][l].mul_add(x[g][l], minus_norm[g][l] * y[g][l]);
+                y[g][l] = x[g][l];
+                x[g][l] = next;
+                sum[l] += next;
+            }
+        }
+        for l in 0..LANES {
+            if WRITE {
+                out[l] = sum[l];
+            } else {
+                out[l] += sum[l];
+            }
+        }
+    }
+    *now = x;
+    *before = y;
 }
 
 /// Groups of [`LANES`] modes stepped together in the free loop: each mode's step
@@ -950,8 +1125,9 @@ mod tests {
 
     #[test]
     fn a_gathering_of_banks_gives_their_sums_and_writes_the_same_bits_as_it_adds() {
-        // Two strings gathered and run together turn their modes exactly as
-        // each alone, and a fresh run's written accumulator is the added one.
+        // Two strings gathered and run together (in real form) turn their
+        // modes as each alone (turning its phasors) but for rounding, and a
+        // fresh run's written accumulator is the added one.
         let (treble, other) = (treble_string(), one_mode(300.0));
         let strings = [&treble, &other];
         let steps: Vec<StepTable> = strings.iter().map(|s| StepTable::new(s, 1.0 / 48_000.0)).collect();
@@ -970,9 +1146,12 @@ mod tests {
         let at: Vec<usize> = banks.iter().zip(&steps).map(|(b, step)| b.gather_free(step, &mut gather).unwrap()).collect();
         let mut written = vec![[f64::NAN; LANES]; FREE_BLOCK];
         gather.run_fresh(&mut written);
-        for ((b, at), a) in banks.iter_mut().zip(at).zip(&alone) {
-            b.scatter_free(&gather, at);
-            assert!(b.re.iter().zip(&a.re).chain(b.im.iter().zip(&a.im)).all(|(x, y)| x.to_bits() == y.to_bits()));
+        for (((b, at), a), step) in banks.iter_mut().zip(at).zip(&alone).zip(&steps) {
+            b.scatter_free(step, &gather, at);
+            let size = a.re.iter().chain(&a.im).fold(0.0f64, |m, v| m.max(v.abs()));
+            for (x, y) in b.re.iter().zip(&a.re).chain(b.im.iter().zip(&a.im)) {
+                assert!((x - y).abs() <= 1e-13 * size, "{x} against {y}");
+            }
         }
         let sum = |acc: &[[f64; LANES]]| acc.iter().map(lane_sum).collect::<Vec<_>>();
         let (one, together) = (sum(&added), sum(&written));
@@ -981,7 +1160,7 @@ mod tests {
         }
         let mut twice = vec![[0.0; LANES]; FREE_BLOCK];
         let again = banks.clone();
-        let mut g2 = FreeGather::with_room(gather.re.len());
+        let mut g2 = FreeGather::with_room(gather.now.len());
         for (b, step) in again.iter().zip(&steps) {
             b.gather_free(step, &mut g2).unwrap();
         }

@@ -94,6 +94,9 @@ pub(crate) const SYMPATHY_BLOCKS: usize = 8;
 /// unheard, at the cost of a key's computing).
 const WAKE_OVER_SILENCE: f64 = 30.0;
 
+/// Free strings are culled every this many control blocks.
+const CULL_EVERY_BLOCKS: u8 = 4;
+
 /// A key the other strings move stays sounding for this many control blocks
 /// after they last did (they trade every [`SYMPATHY_BLOCKS`]).
 const DRIVEN_BLOCKS: usize = SYMPATHY_BLOCKS + 1;
@@ -275,9 +278,9 @@ pub(crate) struct Key {
     level: f64,
     /// The loudest mode of its strings at the last control tick, N (0 while one is played).
     loudest_n: f64,
-    /// Whether the last control tick culled its strings, and what that found
-    /// (their bound and loudest mode, N).
-    culled_last: bool,
+    /// Control ticks until its strings are culled again (0: at the next), and
+    /// what the last culling found (their bound and loudest mode, N).
+    cull_in: u8,
     last_cull: (f64, f64),
 }
 
@@ -436,7 +439,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             fade_step: 0.0,
             level: 0.0,
             loudest_n: 0.0,
-            culled_last: false,
+            cull_in: 0,
             last_cull: (0.0, 0.0),
         })
     }
@@ -561,17 +564,32 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.damper.target(self.down() || self.sostenuto, sustain) < 1.0
     }
 
-    /// The summed phasor of partial `partial` over `strings` (bit i: string i), N.
+    /// The summed phasor of partial `partial` over `strings` (bit i: string i), N
+    /// (read from the gathering while its strings run there).
     #[inline]
     pub fn partial_sum(&self, strings: u8, partial: usize) -> Complex64 {
-        debug_assert!(!self.gather_live, "read while its strings run gathered");
         let mut sum = Complex64::new(0.0, 0.0);
         for (i, s) in self.strings.iter().enumerate() {
             if strings & (1 << i) != 0 && partial < s.bank().running() {
-                sum += s.bank().phasor(partial);
+                sum += match self.gathered_at(i) {
+                    Some(at) => {
+                        let (back_re, _, back_inv) = s.audio().back(partial);
+                        self.gather.phasor(at + partial, back_re, back_inv)
+                    }
+                    None => s.bank().phasor(partial),
+                };
             }
         }
         sum
+    }
+
+    /// Where string `i`'s modes lie in the gathering while they run there.
+    #[inline]
+    fn gathered_at(&self, i: usize) -> Option<usize> {
+        match self.gathered.get(i) {
+            Some(&Some(at)) if self.gather_live && at != usize::MAX => Some(at),
+            _ => None,
+        }
     }
 
     /// The bridge's motion moves partial `partial` of each of `strings` by
@@ -590,7 +608,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         bend: f64,
         silence: f64,
     ) -> bool {
-        self.settle();
+        // A partial running in the gathering is moved there; one it does not
+        // hold (culled, or past a string's running modes) needs them back.
+        let held = |i: usize, s: &StruckString| strings & (1 << i) == 0 || partial >= s.bank().len() || partial < s.bank().running();
+        if self.gather_live && !self.strings.iter().enumerate().all(|(i, s)| held(i, s)) {
+            self.settle();
+        }
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
         let felt = self.would_wake(delta, silence);
         if !self.active {
@@ -609,10 +632,16 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         // The last culling's bound still bounds the strings once it holds
         // the drive too (no rescan needed).
         self.last_cull.0 += (delta.re.abs() + delta.im.abs()) * f64::from(strings.count_ones());
-        for (i, s) in self.strings.iter_mut().enumerate() {
-            if strings & (1 << i) == 0 || partial >= s.bank().len() {
+        for i in 0..self.strings.len() {
+            if strings & (1 << i) == 0 || partial >= self.strings[i].bank().len() {
                 continue;
             }
+            if let Some(at) = self.gathered_at(i) {
+                let (back_re, back_im, _) = self.strings[i].audio().back(partial);
+                self.gather.nudge(at + partial, delta, back_re, back_im);
+                continue;
+            }
+            let s = &mut self.strings[i];
             let z = if partial < s.bank().running() { s.bank().phasor(partial) + delta } else { delta };
             if partial < s.bank().running() || z.re.abs() + z.im.abs() >= floor_n {
                 s.bank_mut().set_phasor(partial, z);
@@ -631,7 +660,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// the others): the damper where the pedal has it, the poles set for it.
     fn wake(&mut self, sustain: f64, bend: f64) {
         self.active = true;
-        self.culled_last = false;
+        self.cull_in = 0;
         self.fade = 1.0;
         self.fade_step = 0.0;
         self.loudest_n = 0.0;
@@ -858,7 +887,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             return;
         }
         self.phantom_stale = true;
-        self.culled_last = false;
+        self.cull_in = 0;
         let impulse = self.damper.head_mass_kg() * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
         let share = -impulse / self.strings.len().max(1) as f64;
         for s in &mut self.strings {
@@ -886,7 +915,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// The damper, lifted, lets its strings go: they spring back from the bend
     /// its weight held them in.
     fn let_strings_go(&mut self) {
-        self.culled_last = false;
+        self.cull_in = 0;
         self.phantom_stale = true;
         let Some(position) = self.notes.first().and_then(|n| n.damper_position()) else { return };
         let level = self.noise.pedal;
@@ -917,7 +946,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// go of hammers that have flown off, and notice silence. Returns true when the
     /// key has just fallen silent (it is then inactive and at rest).
     pub fn control(&mut self, block_s: f64, sustain: f64, bend: f64, silence: f64) -> bool {
-        self.settle();
+        // The strings stay gathered over blocks that neither read nor move
+        // them (handed back below where one does).
         if self.fade <= 0.0 {
             // Faded out (stolen, reset, or its instrument replaced).
             self.silence();
@@ -928,6 +958,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.pressure_now += (self.pressure - self.pressure_now) * (1.0 - (-block_s / PRESSURE_SMOOTHING_S).exp());
         let pitch = self.pitch(bend);
         if self.damper.moved() || (pitch / self.pitch_set - 1.0).abs() > RETUNE_THRESHOLD {
+            self.settle();
             self.set_poles(pitch);
         }
         let floor_n = (CULL_BELOW_LOUDEST * self.loudest_n).max(CULL_FLOOR * silence / self.gain_per_n.max(1e-300));
@@ -943,11 +974,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
             settled &= s.is_settled();
         }
-        // Free strings only fade: every other block the last culling's bound
-        // still bounds them, and the scan is skipped.
-        self.culled_last = !(settled && self.culled_last);
+        // Free strings only fade: between cullings the last one's bound still
+        // bounds them (a drive adds to it; a trade among the strings culls
+        // at once), and the scan is skipped.
+        let scan = !settled || self.cull_in == 0;
+        self.cull_in = if scan { CULL_EVERY_BLOCKS - 1 } else { self.cull_in - 1 };
         let (mut bound, mut loudest_n) = self.last_cull;
-        if self.culled_last {
+        if scan {
+            self.settle();
             (bound, loudest_n) = (0.0, 0.0f64);
             for s in &mut self.strings {
                 let (string_bound, string_loudest) = s.cull(floor_n);
@@ -962,8 +996,13 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         // While a string is played its loudest is unknown (infinite): they wait
         // for the strike to end.
         self.phantom_age += 1;
+        let refresh = self.phantom_stale || self.phantom_age >= PHANTOM_REFRESH_BLOCKS || self.phantom_level != self.phantom_set;
+        if refresh && self.phantom.is_some() {
+            // (Read from the strings, and set anew: back from the gathering.)
+            self.settle();
+        }
         if let Some(p) = &mut self.phantom
-            && (self.phantom_stale || self.phantom_age >= PHANTOM_REFRESH_BLOCKS || self.phantom_level != self.phantom_set)
+            && refresh
         {
             let floor = floor_n.max(crate::phantom::BELOW_LOUDEST * loudest_n);
             self.phantom_on = p.start_block(&self.strings, self.phantom_level, floor);
@@ -1000,6 +1039,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// is over `floor_n`. Allocates: no.
     fn trade_through_bridge(&mut self, floor_n: f64) {
         self.settle();
+        self.cull_in = 0;
         if self.unison.is_empty() {
             return;
         }
@@ -1051,7 +1091,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.fade_step = 0.0;
         self.level = 0.0;
         self.loudest_n = 0.0;
-        self.culled_last = false;
+        self.cull_in = 0;
         self.phantom_on = false;
         self.phantom_stale = true;
         self.bed_pulse = None;

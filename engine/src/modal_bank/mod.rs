@@ -130,6 +130,11 @@ impl StepTable {
         Complex64::new(self.pole_re[index], self.pole_im[index])
     }
 
+    /// Mode `index`'s pole's inverse and the inverse of its imaginary part ([`inverse`]).
+    pub fn back(&self, index: usize) -> (f64, f64, f64) {
+        (self.back_re[index], self.back_im[index], self.back_inv[index])
+    }
+
     /// Replace mode `index`'s pole by exp((-sigma + i omega) h): how a damper or a
     /// pitch bend changes the free step. Only the free step uses the pole alone;
     /// drive tables built from this table keep the coefficients they were built with.
@@ -712,6 +717,22 @@ impl FreeGather {
         let (now, before) = (&self.now[at..at + n], &self.before[at..at + n]);
         re.copy_from_slice(now);
         from_real_form(im, now, before, back_re, back_inv);
+    }
+
+    /// The phasor of the mode taken at `i` as it stands now, with its pole's
+    /// `back_re` and `back_inv` ([`inverse`]): what [`Self::give_back`] would give.
+    #[inline]
+    pub fn phasor(&self, i: usize, back_re: f64, back_inv: f64) -> Complex64 {
+        let (x, y) = (self.now[i], self.before[i]);
+        Complex64::new(x, (x * back_re - y) * back_inv)
+    }
+
+    /// Move the phasor of the mode taken at `i` by `delta`, with its pole's
+    /// `back_re` and `back_im` ([`inverse`]): x_n by Re delta, x_(n-1) by Re(delta / p).
+    #[inline]
+    pub fn nudge(&mut self, i: usize, delta: Complex64, back_re: f64, back_im: f64) {
+        self.now[i] += delta.re;
+        self.before[i] += delta.re * back_re - delta.im * back_im;
     }
 
     /// Advance every gathered mode over `acc.len()` samples, adding the bridge

@@ -715,11 +715,6 @@ impl Synth {
     }
 
     fn control(&mut self, time: u32) {
-        // Every key's strings handed back from their gathered runs before
-        // anything reads them.
-        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            instrument.keys.iter_mut().flatten().for_each(Key::settle);
-        }
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
         let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
         let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());
@@ -757,7 +752,9 @@ impl Synth {
         if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none() && o.soundboard.is_resting()) {
             self.retire(old);
         }
-        if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_ref()) {
+        if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_mut()) {
+            // (The live view reads the string: back from its gathering.)
+            key.settle();
             self.scope.control(key.midi_key(), key.watched_string());
         }
     }

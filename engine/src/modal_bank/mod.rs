@@ -620,6 +620,12 @@ pub fn lane_sum(a: &[f64; LANES]) -> f64 {
 /// bit, in vector registers where the machine has AVX).
 pub fn add_lane_sums(acc: &[[f64; LANES]], out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
+    if is_x86_feature_detected!("avx512f") {
+        // SAFETY: the feature the kernel is compiled for was detected just above.
+        unsafe { x86::add_lane_sums_avx512(acc, out) };
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
     if is_x86_feature_detected!("avx") {
         // SAFETY: the feature the kernel is compiled for was detected just above.
         unsafe { x86::add_lane_sums_avx(acc, out) };
@@ -1069,6 +1075,11 @@ mod tests {
         };
         let acc: Vec<[f64; LANES]> = (0..crate::CONTROL_BLOCK).map(|i| std::array::from_fn(|l| next() * 10f64.powi((i + 3 * l) as i32 % 17 - 8))).collect();
         let start: Vec<f64> = (0..crate::CONTROL_BLOCK).map(|_| next()).collect();
+        // A stretch whose length is no multiple of eight, too.
+        let (mut fast, mut plain) = (start[..13].to_vec(), start[..13].to_vec());
+        add_lane_sums(&acc[..13], &mut fast);
+        add_lane_sums_portable(&acc[..13], &mut plain);
+        assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{fast:?} against {plain:?}");
         let (mut fast, mut plain) = (start.clone(), start);
         add_lane_sums(&acc, &mut fast);
         add_lane_sums_portable(&acc, &mut plain);

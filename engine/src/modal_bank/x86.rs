@@ -136,6 +136,40 @@ driven_kernel!(
     _mm256_fmsub_pd
 );
 
+/// [`super::add_lane_sums`] with AVX-512, eight samples at a time: their
+/// lanes are added in [`lane_sum`]'s order while transposed across registers
+/// (halves, then neighbours, then pairs), so the bits are the portable loop's;
+/// the last few samples go through [`add_lane_sums_avx`].
+#[target_feature(enable = "avx512f")]
+pub(super) fn add_lane_sums_avx512(acc: &[[f64; LANES]], out: &mut [f64]) {
+    let n = acc.len().min(out.len());
+    let whole = n / 8 * 8;
+    // Each sample's halves added: [a0+a4, a1+a5, a2+a6, a3+a7] of samples s and t side by side.
+    let halves = |s: __m512d, t: __m512d| {
+        _mm512_add_pd(_mm512_shuffle_f64x2::<0b01_00_01_00>(s, t), _mm512_shuffle_f64x2::<0b11_10_11_10>(s, t))
+    };
+    for (a, o) in acc[..whole].chunks_exact(8).zip(out[..whole].chunks_exact_mut(8)) {
+        // SAFETY: a holds 8 samples of LANES = 8 f64, o 8 f64: unaligned loads and stores within them.
+        unsafe {
+            let v: [__m512d; 8] = std::array::from_fn(|s| _mm512_loadu_pd(a[s].as_ptr()));
+            // [B0 | B1], [B2 | B3], [B4 | B5], [B6 | B7], each B = [b0, b1, b2, b3].
+            let (c01, c23, c45, c67) = (halves(v[0], v[1]), halves(v[2], v[3]), halves(v[4], v[5]), halves(v[6], v[7]));
+            // [B0 b0+b1, B2 b0+b1, B0 b2+b3, B2 b2+b3, B1 .., B3 .., B1 .., B3 ..] and the same for 4..7.
+            let e0 = _mm512_add_pd(_mm512_unpacklo_pd(c01, c23), _mm512_unpackhi_pd(c01, c23));
+            let e1 = _mm512_add_pd(_mm512_unpacklo_pd(c45, c67), _mm512_unpackhi_pd(c45, c67));
+            // (b0+b1) + (b2+b3): [S0, S2, _, _, S1, S3, _, _] and [S4, S6, _, _, S5, S7, _, _].
+            let h0 = _mm512_add_pd(e0, _mm512_permutex_pd::<0b01_00_11_10>(e0));
+            let h1 = _mm512_add_pd(e1, _mm512_permutex_pd::<0b01_00_11_10>(e1));
+            // [S0 .. S7]: picked from h0 (indices 0..7) and h1 (8..15).
+            let order = _mm512_set_epi64(13, 9, 12, 8, 5, 1, 4, 0);
+            let sums = _mm512_permutex2var_pd(h0, order, h1);
+            _mm512_storeu_pd(o.as_mut_ptr(), _mm512_add_pd(_mm512_loadu_pd(o.as_ptr()), sums));
+        }
+    }
+    // (AVX-512F implies AVX: no further check.)
+    add_lane_sums_avx(&acc[whole..n], &mut out[whole..n]);
+}
+
 /// [`super::add_lane_sums`] with AVX: each sample's lanes summed in registers
 /// in [`lane_sum`]'s order, ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)),
 /// so the bits are the portable loop's. (The compiler's own version of that

@@ -306,8 +306,28 @@ impl StruckString {
     ///
     /// Allocates: no.
     pub fn shape_m(&self, points: &mut [f32]) {
+        self.shape_with(self.tangent_position_m(), |i| self.bank.displacement(i), points);
+    }
+
+    /// Its modes' displacements now, as many as `out` holds (the lowest), m,
+    /// and where a tangent holds its end: what [`Self::shape_of`] draws later.
+    /// Returns how many modes were written. Allocates: no.
+    pub fn displacements(&self, out: &mut [f64]) -> (usize, f64) {
+        let n = out.len().min(self.string.modes.len());
+        for (i, d) in out[..n].iter_mut().enumerate() {
+            *d = self.bank.displacement(i);
+        }
+        (n, self.tangent_position_m())
+    }
+
+    /// [`Self::shape_m`] of this string as it stood when [`Self::displacements`]
+    /// gave `displacements` and `end_m` (modes past them left out).
+    pub fn shape_of(&self, displacements: &[f64], end_m: f64, points: &mut [f32]) {
+        self.shape_with(end_m, |i| displacements.get(i).copied().unwrap_or(0.0), points);
+    }
+
+    fn shape_with(&self, end_m: f64, displacement: impl Fn(usize) -> f64, points: &mut [f32]) {
         let count = points.len();
-        let end_m = self.tangent_position_m();
         for (j, p) in points.iter_mut().enumerate() {
             let x = if count > 1 { j as f64 / (count - 1) as f64 } else { 0.5 };
             // sin(n theta) by the recurrence s_{n+1} = 2 cos(theta) s_n - s_{n-1}.
@@ -317,7 +337,7 @@ impl StruckString {
             let mut y = end_m * x;
             for (i, mode) in self.string.modes.iter().enumerate() {
                 debug_assert_eq!(mode.number, i + 1);
-                y += self.bank.displacement(i) * s_now;
+                y += displacement(i) * s_now;
                 let next = two_cos * s_now - s_prev;
                 s_prev = s_now;
                 s_now = next;

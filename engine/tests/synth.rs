@@ -374,6 +374,14 @@ fn the_live_view_shows_the_strike_and_the_output() {
     assert_eq!(frame.midi_key, 48);
     assert!(frame.contact_len > 100 && frame.contact_n[..frame.contact_len].iter().any(|f| *f > 1.0));
     assert!(frame.strike_force_n > 1.0 && frame.strike_hammer.is_some(), "no picture at peak contact");
+    // The string at peak contact, drawn when the frame went out: pushed up under
+    // the hammer, most near where it strikes, and held at both ends.
+    let (at, _) = frame.hammer.unwrap_or_default();
+    let peak = frame.strike_shape_m.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).unwrap();
+    let n = frame.strike_shape_m.len() as f32 - 1.0;
+    assert!(peak.1.abs() > 1e-5, "no picture of the string at peak contact");
+    assert!((peak.0 as f32 / n - frame.strike_hammer.unwrap().0).abs() < 0.1, "peak at {} of {n}, hammer at {at}", peak.0);
+    assert!(frame.strike_shape_m[0] == 0.0 && frame.strike_shape_m[n as usize].abs() < 1e-3 * peak.1.abs());
     assert!(frame.shape_m.iter().any(|y| y.abs() > 0.0));
     let mut samples = Vec::new();
     scope.drain_samples(&mut samples);

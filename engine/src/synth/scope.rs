@@ -101,10 +101,21 @@ pub(super) struct ScopeWriter {
     since_strike: usize,
     since_frame: usize,
     strike_shape_m: [f32; SHAPE_POINTS],
+    /// The string's modes at the strongest contact so far (the lowest
+    /// [`STRIKE_MODES`]) and its end, drawn into `strike_shape_m` at the next
+    /// frame: a picture taken at every new peak would cost the strike's
+    /// blocks a drawing each.
+    strike_modes: Box<[f64; STRIKE_MODES]>,
+    strike_mode_count: usize,
+    strike_end_m: f64,
+    strike_drawn: bool,
     strike_hammer: Option<(f32, f32)>,
     strike_force_n: f32,
     strike_time_s: f32,
 }
+
+/// Modes kept for the picture of the string at its strongest contact.
+const STRIKE_MODES: usize = 1024;
 
 pub(super) fn channel() -> (ScopeWriter, Scope) {
     let (frames_tx, frames_rx) = RingBuffer::new(FRAME_QUEUE);
@@ -124,6 +135,10 @@ pub(super) fn channel() -> (ScopeWriter, Scope) {
         since_strike: usize::MAX,
         since_frame: 0,
         strike_shape_m: [0.0; SHAPE_POINTS],
+        strike_modes: Box::new([0.0; STRIKE_MODES]),
+        strike_mode_count: 0,
+        strike_end_m: 0.0,
+        strike_drawn: true,
         strike_hammer: None,
         strike_force_n: 0.0,
         strike_time_s: 0.0,
@@ -149,6 +164,7 @@ impl ScopeWriter {
         self.since_strike = 0;
         self.strike_force_n = 0.0;
         self.strike_hammer = None;
+        self.strike_drawn = true;
     }
 
     /// While the strike is being recorded: keep a picture of the string whenever
@@ -162,7 +178,8 @@ impl ScopeWriter {
         if force > self.strike_force_n {
             self.strike_force_n = force;
             self.strike_time_s = (self.contact_len as f64 / string.sample_rate_hz()) as f32;
-            string.shape_m(&mut self.strike_shape_m);
+            (self.strike_mode_count, self.strike_end_m) = string.displacements(&mut self.strike_modes[..]);
+            self.strike_drawn = false;
             self.strike_hammer = string.hammer().map(|h| (h.spec.position as f32, h.position_m as f32));
         }
     }
@@ -200,6 +217,10 @@ impl ScopeWriter {
         frame.sample_rate_hz = string.sample_rate_hz();
         frame.length_m = string.string().length_m;
         string.shape_m(&mut frame.shape_m);
+        if !self.strike_drawn {
+            string.shape_of(&self.strike_modes[..self.strike_mode_count], self.strike_end_m, &mut self.strike_shape_m);
+            self.strike_drawn = true;
+        }
         frame.hammer = string.hammer().map(|h| (h.spec.position as f32, h.position_m as f32));
         let len = self.contact_len.min(CONTACT_SAMPLES);
         frame.contact_n[..len].copy_from_slice(&self.contact[..len]);

@@ -71,6 +71,11 @@ impl Plugin for StruckPlugin {
     }];
 
     const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
+    /// Room for a host's burst of events in one block without growing (on the
+    /// audio thread): a VST3 host reopening a session restores the wrapper's
+    /// 16 x 130 hidden MIDI-controller parameters at once (see
+    /// [`performer::is_restored_controller`]), 2080 events on top of the notes.
+    const INPUT_EVENT_CAPACITY: usize = 4096;
 
     type Editor = EguiEditor<StruckEditor>;
     type SysExMessage = ();

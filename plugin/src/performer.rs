@@ -124,6 +124,7 @@ impl Performer {
             NoteEvent::PolyPressure { key: Key::Number(key), pressure, .. } if key < 128 => {
                 push(Event::Pressure { key, pressure })
             }
+            NoteEvent::MidiChannelPressure { pressure, .. } if is_restored_controller(pressure) => {}
             NoteEvent::MidiChannelPressure { channel, pressure, .. } => {
                 self.pressure.channel_pressure(channel, pressure, push)
             }
@@ -137,6 +138,7 @@ impl Performer {
                 self.pressure.reset();
                 push(Event::Reset)
             }
+            NoteEvent::MidiCC { value, .. } if is_restored_controller(value) => {}
             NoteEvent::MidiCC { cc, value, .. } => {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
@@ -144,6 +146,18 @@ impl Performer {
             _ => {}
         }
     }
+}
+
+/// Whether a controller's value (a MIDI CC or channel pressure, 0..=1) is one
+/// no MIDI controller sends, but a VST3 host restoring a session does: the
+/// wrapper reports its hidden MIDI-controller parameters at 0.5 and their
+/// default at 0, so a host reopening a session "restores" every controller
+/// of every channel to 0.5 (all-notes-off and all-sound-off, the pedals at
+/// half, a channel pressure that would press every held tangent). A 7-bit
+/// controller is n / 127, never exactly 0.5; the pitch wheel's 0.5 is its
+/// centre and passes.
+pub fn is_restored_controller(value: f32) -> bool {
+    value == 0.5
 }
 
 /// nice-plug's pitch bend (the 14-bit value / 16383) as -1..=1 with the
@@ -246,7 +260,7 @@ mod tests {
 
     #[test]
     fn pedals_and_controllers_become_engine_events() {
-        assert_eq!(translated(cc(0, 64, 0.5)), [Event::Sustain(0.5)]);
+        assert_eq!(translated(cc(0, 64, 64.0 / 127.0)), [Event::Sustain(64.0 / 127.0)]);
         assert_eq!(translated(cc(0, 66, 1.0)), [Event::Sostenuto(1.0)]);
         assert_eq!(translated(cc(0, 67, 1.0)), [Event::UnaCorda(1.0)]);
         assert_eq!(translated(cc(0, 120, 0.0)), [Event::Reset]);
@@ -285,7 +299,7 @@ mod tests {
             |channel, pressure| NoteEvent::<()>::MidiChannelPressure { timing: 0, channel, pressure };
         p.translate(note_on(0, 60, 0.5, 1, 0), 0);
         p.translate(note_on(0, 64, 0.5, 2, 3), 0);
-        p.translate(channel_pressure(3, 0.5), 0);
+        p.translate(channel_pressure(3, 0.25), 0);
         let poly = NoteEvent::<()>::PolyPressure {
             timing: 0,
             voice_id: VoiceID::Wildcard,
@@ -300,8 +314,58 @@ mod tests {
             p.events.iter().map(|e| e.event).filter(|e| matches!(e, Event::Pressure { .. })).collect();
         assert_eq!(
             pressures,
-            [Event::Pressure { key: 64, pressure: 0.5 }, Event::Pressure { key: 60, pressure: 0.75 }]
+            [Event::Pressure { key: 64, pressure: 0.25 }, Event::Pressure { key: 60, pressure: 0.75 }]
         );
+    }
+
+    /// What a VST3 host sends when it reopens a session: every hidden
+    /// controller parameter of every channel at the 0.5 the wrapper reported.
+    fn restore_burst(timing: u32) -> Vec<NoteEvent<()>> {
+        (0..16u8)
+            .flat_map(|channel| {
+                (0..128u8)
+                    .map(move |cc| NoteEvent::MidiCC { timing, channel, cc, value: 0.5 })
+                    .chain([
+                        NoteEvent::MidiChannelPressure { timing, channel, pressure: 0.5 },
+                        NoteEvent::MidiPitchBend { timing, channel, value: 0.5 },
+                    ])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_hosts_restore_burst_changes_no_sample_and_allocates_nothing() {
+        // A held clavichord note (pressure would bend it) and a ringing piano
+        // (all-sound-off would stop it, the pedals would move), each with and
+        // without the 2080 restored controllers in the middle of the note.
+        for kind in [InstrumentKind::Clavichord, InstrumentKind::Piano] {
+            let render = |burst: bool| {
+                let wanted = Arc::new(Mutex::new(settings(kind)));
+                let (mut p, _workshop) = performer(&wanted);
+                let mut port = Port::new();
+                let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+                let mut out = Vec::new();
+                for b in 0..40 {
+                    let mut events = Vec::with_capacity(4096);
+                    if b == 0 {
+                        events.push(note_on(0, 57, 0.7, 1, 0));
+                    }
+                    if burst && b == 10 {
+                        events.extend(restore_burst(100));
+                    }
+                    port.load(&events);
+                    nice_assert_no_alloc::assert_no_alloc(|| p.process(Controls::default(), &mut port, &mut l, &mut r));
+                    out.extend_from_slice(&l);
+                }
+                out
+            };
+            let (plain, restored) = (render(false), render(true));
+            assert!(plain.iter().any(|s| s.abs() > 1e-4), "{kind:?} sounds");
+            assert!(plain.iter().zip(&restored).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind:?}: the burst changed the sound");
+        }
+        // A player's controllers still arrive: 64/127 is the sustain pedal half down.
+        assert_eq!(translated(cc(0, 64, 64.0 / 127.0)), [Event::Sustain(64.0 / 127.0)]);
+        assert_eq!(translated(cc(0, 120, 0.5)), []);
     }
 
     #[test]

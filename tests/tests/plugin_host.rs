@@ -434,6 +434,51 @@ fn survives_a_long_random_session_without_allocating() {
     assert!(rms(&run.left) > 1e-4, "the session made sound");
 }
 
+#[test]
+fn a_burst_of_thousands_of_events_in_one_block_allocates_nothing() {
+    // Every controller of every channel (what a VST3 host restores on
+    // reopening a session: 2080 events), a note and a pedal, in one block.
+    // The wrapper lets its event list grow on the audio thread if a block
+    // brings more events than it holds, saying so in its log: played in a
+    // child process logging to a file, nothing of that is said.
+    let Some(_) = bundle() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("plugin.log");
+    let here = "a_burst_of_thousands_of_events_in_one_block_child";
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", here, "--ignored", "--nocapture", "--test-threads=1"])
+        .env("NICE_LOG", &log)
+        .output()
+        .unwrap();
+    let said = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(out.status.success(), "{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 passed"), "the child did not run");
+    assert!(!said.contains("filled up"), "the event list grew on the audio thread:\n{said}");
+}
+
+#[test]
+#[ignore = "run by a_burst_of_thousands_of_events_in_one_block_allocates_nothing"]
+fn a_burst_of_thousands_of_events_in_one_block_child() {
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    let mut burst = EventBuffer::with_capacity(4096);
+    burst.push(&note_on(0, 60, 1, 0.7));
+    for channel in 0..16u8 {
+        for cc in (0..120u8).filter(|cc| ![64, 66, 67].contains(cc)) {
+            burst.push(&MidiEvent::new(10, 0, [0xB0 | channel, cc, 64]));
+        }
+        burst.push(&MidiEvent::new(10, 0, [0xD0 | channel, 0, 0]));
+        burst.push(&MidiEvent::new(10, 0, [0xE0 | channel, 0, 64]));
+    }
+    burst.push(&midi(20, [0xB0, 64, 127]));
+    assert!(burst.len() > 1900, "{} events", burst.len());
+    let sizes = vec![BLOCK; 40];
+    let run = process(&mut instance, &sizes, &vec![(0, burst)], Duration::ZERO);
+    assert_eq!(run.left.len(), 40 * BLOCK);
+    assert!(rms(&run.left[BLOCK..]) > 1e-4, "the note sounds through the burst");
+}
+
 // The standalone: `struck` with no subcommand.
 
 /// Whether this machine has no ALSA sound card.

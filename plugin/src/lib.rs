@@ -15,6 +15,7 @@ pub mod performer;
 pub mod standalone;
 
 use std::num::NonZeroU32;
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 use nice_plug::prelude::*;
@@ -22,7 +23,7 @@ use nice_plug_egui::{EguiEditor, EguiEditorState};
 use struck_engine::synth::{Instrument, Synth, Workshop};
 
 use crate::editor::{ScopeFeed, SharedScope, StruckEditor};
-use crate::params::StruckParams;
+use crate::params::{BuildKey, StruckParams};
 use crate::performer::{EventPort, Performer, VoiceId};
 
 /// Keys the synth can sound at once, at most (the polyphony parameter's top).
@@ -41,6 +42,13 @@ pub struct StruckPlugin {
     sample_rate_hz: f64,
     /// The voice capacity last reported to the host.
     voice_capacity: u32,
+    /// Rendering offline: a change of what the instrument is built from is
+    /// built at once and heard from its sample ([`Performer::catch_up`]).
+    offline: bool,
+    /// What the instrument playing offline was built from.
+    built: Option<BuildKey>,
+    /// True while the workshop builds an instrument (the panel says so).
+    building: Arc<AtomicBool>,
 }
 
 impl Default for StruckPlugin {
@@ -53,6 +61,9 @@ impl Default for StruckPlugin {
             editor_state: editor::default_state(),
             sample_rate_hz: 0.0,
             voice_capacity: 0,
+            offline: false,
+            built: None,
+            building: Arc::new(AtomicBool::new(false)),
         }
     }
 }
@@ -71,6 +82,9 @@ impl Plugin for StruckPlugin {
     }];
 
     const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
+    /// A block is cut where a parameter changes, so that offline a rebuilt
+    /// instrument is heard from the sample its change comes at.
+    const SAMPLE_ACCURATE_AUTOMATION: bool = true;
     /// Room for a host's burst of events in one block without growing (on the
     /// audio thread): a VST3 host reopening a session restores the wrapper's
     /// 16 x 130 hidden MIDI-controller parameters at once (see
@@ -90,7 +104,7 @@ impl Plugin for StruckPlugin {
             // A standalone with no display plays headless rather than failing to open a window.
             return None;
         }
-        editor::create(self.params.clone(), self.scope.clone(), self.editor_state.clone())
+        editor::create(self.params.clone(), self.scope.clone(), self.editor_state.clone(), self.building.clone())
     }
 
     /// Builds the first instrument synchronously and starts the workshop. Allocates.
@@ -115,7 +129,11 @@ impl Plugin for StruckPlugin {
             };
             let (synth, scope) = Synth::new(Box::new(instrument));
             let params = self.params.clone();
-            let (workshop, delivery) = Workshop::spawn(settings, move || Some(params.settings(sample_rate_hz)));
+            let (workshop, delivery) = Workshop::spawn_telling(
+                settings,
+                move || Some(params.settings(sample_rate_hz)),
+                self.building.clone(),
+            );
             self.performer = Some(Performer::new(synth, delivery));
             self.workshop = Some(workshop);
             *self.scope.lock().unwrap_or_else(|e| e.into_inner()) = Some(ScopeFeed { scope, sample_rate_hz });
@@ -123,6 +141,9 @@ impl Plugin for StruckPlugin {
         }
         self.voice_capacity = self.params.controls().polyphony as u32;
         context.set_current_voice_capacity(self.voice_capacity);
+        self.offline = buffer_config.process_mode == ProcessMode::Offline;
+        // (Offline, the first block makes sure what plays is what is asked for.)
+        self.built = None;
         true
     }
 
@@ -147,6 +168,16 @@ impl Plugin for StruckPlugin {
             }
             return ProcessStatus::Normal;
         };
+        if self.offline {
+            // A host rendering offline does not wait for the clock: what the
+            // automation changed is built now and heard from this sample (the
+            // block is cut where it changed), and every bounce is the same.
+            let key = self.params.build_key();
+            if self.built != Some(key) {
+                performer.catch_up();
+                self.built = Some(key);
+            }
+        }
         let controls = self.params.controls();
         if controls.polyphony as u32 != self.voice_capacity {
             self.voice_capacity = controls.polyphony as u32;

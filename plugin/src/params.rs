@@ -450,6 +450,22 @@ impl StruckParams {
         }
     }
 
+    /// What the instrument is built from as the parameters stand, read from
+    /// atomics only (the audio thread compares it between blocks): it changes
+    /// whenever the tables must be rebuilt, except for a Scala file loaded
+    /// from the panel (a file, never automated).
+    pub fn build_key(&self) -> BuildKey {
+        BuildKey {
+            kind: self.kind(),
+            voicing: self.voicing(),
+            tuning: [self.tuning.a4_hz.value(), self.tuning.stretch.value()],
+            temperament: self.tuning.temperament.value(),
+            root: self.tuning.root.value(),
+            mics: self.mics(),
+            output: self.output.source.value().output(),
+        }
+    }
+
     /// What the instrument's tables are built from, at `sample_rate_hz`.
     pub fn settings(&self, sample_rate_hz: f64) -> InstrumentSettings {
         InstrumentSettings {
@@ -506,6 +522,18 @@ impl StruckParams {
             pedal_noise: self.action.pedal_noise.value() as f64,
         }
     }
+}
+
+/// What the instrument's tables depend on among the parameters ([`StruckParams::build_key`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildKey {
+    kind: InstrumentKind,
+    voicing: Voicing,
+    tuning: [f32; 2],
+    temperament: TemperamentChoice,
+    root: i32,
+    mics: MicPlacement,
+    output: struck_engine::body::Output,
 }
 
 fn temperament_or_equal(t: Temperament) -> Temperament {

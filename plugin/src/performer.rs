@@ -51,6 +51,12 @@ impl Performer {
         &self.synth
     }
 
+    /// Offline only (it waits): install the instrument the settings ask for
+    /// now, built at once ([`Delivery::catch_up`]). Allocates: no.
+    pub fn catch_up(&mut self) -> bool {
+        self.delivery.catch_up(&mut self.synth)
+    }
+
     /// Silence everything at the start of the next block. Real-time safe.
     pub fn reset(&mut self) {
         self.reset_pending = true;

@@ -11,6 +11,7 @@
 mod library;
 pub mod views;
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -55,12 +56,13 @@ pub fn create(
     params: Arc<StruckParams>,
     scope: SharedScope,
     state: Arc<EguiEditorState>,
+    building: Arc<AtomicBool>,
 ) -> Option<EguiEditor<StruckEditor>> {
     create_egui_editor(
         state,
         RepaintNotifier::new(),
         EguiNiceSettings::new().with_tile("Struck"),
-        StruckEditor::new(params, scope),
+        StruckEditor::new(params, scope).telling_builds(building),
     )
 }
 
@@ -72,6 +74,8 @@ pub struct StruckEditor {
     live: LiveView,
     sample_rate_hz: f64,
     library: library::Library,
+    /// True while the instrument is being rebuilt for new settings.
+    building: Arc<AtomicBool>,
 }
 
 impl StruckEditor {
@@ -82,8 +86,14 @@ impl StruckEditor {
             gui: None,
             live: LiveView::default(),
             sample_rate_hz: 48_000.0,
+            building: Arc::new(AtomicBool::new(false)),
             library: library::Library::new(),
         }
+    }
+
+    /// Say in the panel while the instrument is rebuilt (`building` true).
+    pub fn telling_builds(self, building: Arc<AtomicBool>) -> Self {
+        Self { building, ..self }
     }
 
     /// Hand the panel the host's context (what `build` receives in a real window).
@@ -118,7 +128,13 @@ impl StruckEditor {
     }
 
     fn physics(&mut self, ui: &mut Ui) {
-        ui.heading("The string, as it moves");
+        ui.horizontal(|ui| {
+            ui.heading("The string, as it moves");
+            if self.building.load(Ordering::Relaxed) {
+                // New settings are heard once the instrument is rebuilt.
+                ui.label(RichText::new("rebuilding the instrument for the new settings...").italics());
+            }
+        });
         let width = ui.available_width();
         let frame = self.live.frame().cloned();
         views::string_view(ui, frame.as_ref(), Vec2::new(width, 170.0));
@@ -311,13 +327,43 @@ mod tests {
         ctx.run_ui(input, |ui| editor.draw(ui))
     }
 
+    /// Whether a frame drew `text` anywhere.
+    fn drew_text(out: &egui::FullOutput, text: &str) -> bool {
+        fn has(shape: &egui::Shape, text: &str) -> bool {
+            match shape {
+                egui::Shape::Text(t) => t.galley.text().contains(text),
+                egui::Shape::Vec(shapes) => shapes.iter().any(|s| has(s, text)),
+                _ => false,
+            }
+        }
+        out.shapes.iter().any(|clipped| has(&clipped.shape, text))
+    }
+
+    #[test]
+    fn the_panel_says_so_while_the_instrument_is_rebuilt() {
+        let params = Arc::new(StruckParams::default());
+        let building = Arc::new(AtomicBool::new(false));
+        let mut editor = StruckEditor::new(params, Arc::new(Mutex::new(None))).telling_builds(building.clone());
+        editor.set_gui_context(GuiContext::new(Arc::new(Host::default())));
+        let ctx = egui::Context::default();
+        let says = "rebuilding the instrument";
+        let drawn = |editor: &mut StruckEditor| {
+            let mut out = frame(&ctx, editor);
+            out.textures_delta.clear();
+            drew_text(&out, says)
+        };
+        assert!(!drawn(&mut editor));
+        building.store(true, Ordering::Relaxed);
+        assert!(drawn(&mut editor));
+    }
+
     /// The panel builds and draws with no window: every group, the touch curve and
     /// the three live views fed by a synth that has just struck a key.
     #[test]
     fn the_panel_draws_headless_from_a_live_scope() {
         let params = Arc::new(StruckParams::default());
         let shared: SharedScope = Arc::new(Mutex::new(None));
-        assert!(create(params.clone(), shared.clone(), default_state()).is_some());
+        assert!(create(params.clone(), shared.clone(), default_state(), Arc::new(AtomicBool::new(false))).is_some());
 
         let fs = 48_000.0;
         let instrument = Instrument::build(&default_settings(InstrumentKind::Santoor, fs)).unwrap();

@@ -843,6 +843,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             return;
         }
         self.held &= !bit;
+        if self.held == 0 {
+            self.damper.land(velocity);
+        }
         if self.held == 0 && !self.sostenuto && self.damper.target(false, sustain) >= 0.5 {
             self.land_damper(note, velocity);
         }

@@ -549,3 +549,27 @@ fn a_held_clavichord_key_stays_pressed_after_its_sound_has_died() {
         assert!(after <= ringing, "{output:?}: {after:e} after 2 s against {ringing:e} at 1-2 s");
     }
 }
+
+#[test]
+fn a_soft_release_lets_the_damper_down_slowly_and_the_note_fades_longer() {
+    // C4 held half a second and let up at a release velocity of 1, 0.5 and
+    // 0.1 (the damper's landing thump off): samples from the release until the
+    // output has fallen 40 dB under its level then.
+    let fade = |velocity: f32| {
+        let mut s = synth(InstrumentKind::Piano);
+        s.set_controls(Controls { damper_noise: 0.0, ..bridge() });
+        let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.7 }), (0.5, Event::NoteOff { key: 60, velocity })];
+        let out = render(&mut s, 1.5, &events, 256);
+        let at = (0.5 * FS) as usize;
+        let frame = 96;
+        let level = |i: usize| rms(&out[i..i + frame]);
+        let start = level(at - frame);
+        (at..out.len() - frame).step_by(frame / 4).find(|&i| level(i) < start * 0.01).map(|i| i - at)
+    };
+    let (hard, middling, soft) = (fade(1.0).unwrap(), fade(0.5).unwrap(), fade(0.1).unwrap());
+    eprintln!("C4 down 40 dB after its release in {hard} samples at release velocity 1, {middling} at 0.5, {soft} at 0.1");
+    // The felt settles in 7.5, 15 and 240 ms (a ramp of the damping: half its
+    // time adds to the fade); the damper's decay takes about 0.15 s besides.
+    assert!(hard <= middling && middling < soft, "{hard} {middling} {soft}");
+    assert!(soft - middling >= (0.1 * FS) as usize, "{hard} {middling} {soft}");
+}

@@ -31,6 +31,9 @@ pub struct Performer {
     /// Who struck each key last (note id, channel), to name the voice when it ends.
     voices: [(VoiceId, u8); 128],
     pressure: PressureRouter,
+    /// Per channel, the low 7 bits a high-resolution velocity prefix (CC 88)
+    /// gave the next note-on.
+    velocity_low: [Option<u8>; 16],
     reset_pending: bool,
 }
 
@@ -43,6 +46,7 @@ impl Performer {
             events: Vec::with_capacity(EVENT_CAPACITY),
             voices: [(None, 0); 128],
             pressure: PressureRouter::default(),
+            velocity_low: [None; 16],
             reset_pending: false,
         }
     }
@@ -82,6 +86,7 @@ impl Performer {
         if std::mem::take(&mut self.reset_pending) {
             self.events.push(TimedEvent::new(0, Event::Reset));
             self.pressure.reset();
+            self.velocity_low = [None; 16];
         }
         let mut start = 0;
         let mut last = 0;
@@ -119,7 +124,8 @@ impl Performer {
             NoteEvent::NoteOn { key: Key::Number(key), velocity, voice_id, channel, .. } if key < 128 => {
                 let channel = channel.number().unwrap_or(0);
                 self.voices[key as usize] = (voice_id.id(), channel);
-                push(Event::NoteOn { key, velocity });
+                let low = self.velocity_low.get_mut(channel as usize & 15).and_then(Option::take);
+                push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
             NoteEvent::NoteOff { key: Key::Number(key), velocity, .. } if key < 128 => {
@@ -145,12 +151,32 @@ impl Performer {
                 push(Event::Reset)
             }
             NoteEvent::MidiCC { value, .. } if is_restored_controller(value) => {}
+            NoteEvent::MidiCC { cc: HIGH_RESOLUTION_VELOCITY, channel, value, .. } => {
+                self.velocity_low[channel as usize & 15] = Some((value.clamp(0.0, 1.0) * 127.0).round() as u8);
+            }
             NoteEvent::MidiCC { cc, value, .. } => {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
             NoteEvent::MidiPitchBend { value, .. } => push(Event::PitchBend(pitch_wheel(value))),
             _ => {}
         }
+    }
+}
+
+/// MIDI's high-resolution velocity prefix: the low 7 bits of the next
+/// note-on's velocity on its channel.
+const HIGH_RESOLUTION_VELOCITY: u8 = 88;
+
+/// A note-on's `velocity` (0..=1, a 7-bit value over 127) with the low 7 bits
+/// `low` of a high-resolution velocity prefix: the 14-bit value over 16383.
+/// Without a prefix, as it came.
+pub fn high_resolution_velocity(velocity: f32, low: Option<u8>) -> f32 {
+    match low {
+        Some(low) => {
+            let high = (velocity.clamp(0.0, 1.0) * 127.0).round() as u16;
+            f32::from((high << 7) | u16::from(low.min(127))) / 16383.0
+        }
+        None => velocity,
     }
 }
 
@@ -372,6 +398,42 @@ mod tests {
         // A player's controllers still arrive: 64/127 is the sustain pedal half down.
         assert_eq!(translated(cc(0, 64, 64.0 / 127.0)), [Event::Sustain(64.0 / 127.0)]);
         assert_eq!(translated(cc(0, 120, 0.5)), []);
+    }
+
+    #[test]
+    fn a_high_resolution_velocity_prefix_refines_the_next_note_on_its_channel() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        let prefix = |channel, low: u8| NoteEvent::<()>::MidiCC { timing: 0, channel, cc: 88, value: f32::from(low) / 127.0 };
+        p.translate(prefix(2, 100), 0);
+        p.translate(note_on(0, 60, 64.0 / 127.0, 1, 3), 0);
+        p.translate(note_on(0, 62, 64.0 / 127.0, 2, 2), 0);
+        p.translate(note_on(0, 64, 64.0 / 127.0, 3, 2), 0);
+        let velocities: Vec<f32> = p
+            .events
+            .iter()
+            .filter_map(|e| match e.event {
+                Event::NoteOn { velocity, .. } => Some(velocity),
+                _ => None,
+            })
+            .collect();
+        // Another channel's note is untouched; the prefixed one is 64 * 128 +
+        // 100 over 16383; the prefix is used once.
+        assert_eq!(velocities, [64.0 / 127.0, (64.0 * 128.0 + 100.0) / 16383.0, 64.0 / 127.0]);
+        assert_eq!(high_resolution_velocity(1.0, Some(127)), 1.0);
+        assert_eq!(high_resolution_velocity(0.0, Some(0)), 0.0);
+        // In the output: C4 at 64 with the low bits all set is louder than
+        // with none, by what the 127 steps between them move the touch.
+        let level = |low: u8| {
+            let (mut p, _workshop) = performer(&wanted);
+            let mut port = Port::new();
+            port.load(&[prefix(0, low), note_on(0, 60, 64.0 / 127.0, 1, 0)]);
+            let out = run(&mut p, &mut port, 0.4, 256);
+            10.0 * (out.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>()).log10()
+        };
+        let (low, high) = (level(0), level(127));
+        eprintln!("C4 at velocity 64, low bits 0: {low:.3} dB, 127: {high:.3} dB");
+        assert!(high - low > 0.02 && high - low < 1.0, "{low:.3} against {high:.3} dB");
     }
 
     #[test]

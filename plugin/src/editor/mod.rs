@@ -23,6 +23,7 @@ use nice_plug_egui::widgets::ParamSlider;
 use nice_plug_egui::{
     EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier, baseview, create_egui_editor,
 };
+use struck_engine::design::InstrumentKind;
 use struck_engine::synth::Scope;
 use struck_engine::design::TouchRange;
 
@@ -181,31 +182,40 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         ui.label(RichText::new(format!("velocity to {what}")).small());
         views::touch_curve(ui, &params.controls(), kind, Vec2::new(ui.available_width(), 96.0));
     });
-    group(ui, "Hammer", |ui| {
-        slider(ui, "Mass", &params.hammer.mass, setter);
-        slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
-        slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
-        slider(ui, "Strike position", &params.hammer.position, setter);
-        slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
-    });
+    // Only the groups that act on the instrument chosen.
+    match params.kind() {
+        InstrumentKind::Clavichord => {}
+        InstrumentKind::Harpsichord => group(ui, "Plectrum", |ui| {
+            slider(ui, "Pluck position", &params.hammer.position, setter);
+        }),
+        kind => group(ui, if matches!(kind, InstrumentKind::Piano | InstrumentKind::Fortepiano) { "Hammer" } else { "Mallets" }, |ui| {
+            slider(ui, "Mass", &params.hammer.mass, setter);
+            slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
+            slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
+            slider(ui, "Strike position", &params.hammer.position, setter);
+            slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
+        }),
+    }
     group(ui, "Strings", |ui| {
         slider(ui, "Damping", &params.strings.damping, setter);
         slider(ui, "Unison detune", &params.strings.detune, setter);
     });
-    group(ui, "Tangent (clavichord)", |ui| {
-        slider(ui, "Depth", &params.tangent.depth, setter);
-        slider(ui, "Bebung", &params.tangent.bebung, setter);
-        ui.horizontal(|ui| {
-            ui.add_sized([118.0, 18.0], egui::Label::new("Fretted"));
-            let mut fretted = params.tangent.fretted.value();
-            if ui.checkbox(&mut fretted, "keys share strings").changed() {
-                setter.begin_set_parameter(&params.tangent.fretted);
-                setter.set_parameter(&params.tangent.fretted, fretted);
-                setter.end_set_parameter(&params.tangent.fretted);
-            }
+    if params.kind() == InstrumentKind::Clavichord {
+        group(ui, "Tangent", |ui| {
+            slider(ui, "Depth", &params.tangent.depth, setter);
+            slider(ui, "Bebung", &params.tangent.bebung, setter);
+            ui.horizontal(|ui| {
+                ui.add_sized([118.0, 18.0], egui::Label::new("Fretted"));
+                let mut fretted = params.tangent.fretted.value();
+                if ui.checkbox(&mut fretted, "keys share strings").changed() {
+                    setter.begin_set_parameter(&params.tangent.fretted);
+                    setter.set_parameter(&params.tangent.fretted, fretted);
+                    setter.end_set_parameter(&params.tangent.fretted);
+                }
+            });
+            ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
         });
-        ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
-    });
+    }
 }
 
 fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
@@ -337,6 +347,32 @@ mod tests {
             }
         }
         out.shapes.iter().any(|clipped| has(&clipped.shape, text))
+    }
+
+    #[test]
+    fn the_panel_shows_the_groups_of_the_instrument_chosen() {
+        let params = Arc::new(StruckParams::default());
+        let mut editor = StruckEditor::new(params.clone(), Arc::new(Mutex::new(None)));
+        editor.set_gui_context(GuiContext::new(Arc::new(Host::default())));
+        let ctx = egui::Context::default();
+        let mut shows = |kind: InstrumentChoice, title: &str| {
+            let kind_param = &params.instrument.kind;
+            // SAFETY: as a host does, from one thread, on a parameter alive for the call.
+            unsafe { kind_param.as_ptr()._internal_set_normalized_value(kind_param.preview_normalized(kind)) };
+            let mut out = frame(&ctx, &mut editor);
+            out.textures_delta.clear();
+            drew_text(&out, title)
+        };
+        for (kind, present, absent) in [
+            (InstrumentChoice::Piano, "Hammer", "Tangent"),
+            (InstrumentChoice::Santoor, "Mallets", "Hammer"),
+            (InstrumentChoice::Clavichord, "Tangent", "Hammer"),
+            (InstrumentChoice::Clavichord, "Bebung", "Mallets"),
+            (InstrumentChoice::Harpsichord, "Plectrum", "Tangent"),
+        ] {
+            assert!(shows(kind, present), "{kind:?} lacks {present}");
+            assert!(!shows(kind, absent), "{kind:?} shows {absent}");
+        }
     }
 
     #[test]

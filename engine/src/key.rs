@@ -267,6 +267,8 @@ pub(crate) struct Key {
     /// Finger pressure 0..=1 (aftertouch), and its smoothed value.
     pressure: f64,
     pressure_now: f64,
+    /// Its own pitch offset as a ratio ([`Self::set_tune`]).
+    tune: f64,
     /// How much deeper full pressure presses a tangent, as a fraction of its depth.
     bebung: f64,
     /// The pitch the poles were last set for.
@@ -433,6 +435,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             speaking: 0,
             pressure: 0.0,
             pressure_now: 0.0,
+            tune: 1.0,
             bebung: 0.0,
             pitch_set: 1.0,
             fade: 1.0,
@@ -710,6 +713,14 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.phantom_level = level;
     }
 
+    /// Its own pitch offset as a ratio, on top of the bend (an MPE note's
+    /// channel bend, a CLAP tuning expression); heard from the next control tick.
+    pub fn set_tune(&mut self, ratio: f64) {
+        if ratio.is_finite() && ratio > 0.0 {
+            self.tune = ratio;
+        }
+    }
+
     pub fn set_bebung(&mut self, bebung: f64) {
         self.bebung = bebung;
     }
@@ -942,7 +953,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             }
             _ => 1.0,
         };
-        bend * note.pitch_ratio * stretch
+        bend * self.tune * note.pitch_ratio * stretch
     }
 
     /// Once per control block: move the damper, retune for a bend or a press, let
@@ -1261,6 +1272,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.speaking = old.speaking.min(self.notes.len() - 1);
         self.pressure = old.pressure;
         self.pressure_now = old.pressure_now;
+        self.tune = old.tune;
         if self.bridge_force_n.len() == old.bridge_force_n.len() {
             self.bridge_force_n.copy_from_slice(&old.bridge_force_n);
         }

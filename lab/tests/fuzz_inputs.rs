@@ -94,6 +94,8 @@ fn song(bytes: &[u8], sample_rate_hz: u32, include_channel_10: bool) -> Result<(
             Event::NoteOff { key, velocity } | Event::Pressure { key, pressure: velocity } => (key, [velocity, 0.0]),
             Event::Sustain(v) | Event::Sostenuto(v) | Event::UnaCorda(v) | Event::ModWheel(v) => (0, [v, 0.0]),
             Event::PitchBend(v) => (0, [v.abs(), 0.0]),
+            // An MPE note's bend, up to its range (96 semitones at most).
+            Event::KeyBend { key, semitones } => (key, [semitones.abs() / 96.0, 0.0]),
             Event::AllNotesOff | Event::Reset => (0, [0.0, 0.0]),
         };
         prop_assert!(key < 128 && values.iter().all(|v| (0.0..=1.0).contains(v)), "{event:?}");

@@ -191,6 +191,7 @@ impl Plugin for StruckPlugin {
             }
             return ProcessStatus::Normal;
         };
+        performer.set_mpe(self.params.mpe());
         let mut host = HostEvents { context, report_ends };
         let sounding = performer.process(controls, &mut host, left, right);
         // A ringing key keeps the host processing (its tail); silence lets it sleep.

@@ -216,6 +216,13 @@ pub struct OutputParams {
     pub polyphony: IntParam,
     #[id = "bend"]
     pub bend_range: IntParam,
+    /// MPE: channel 1 bends every note, channels 2-16 each bend their own
+    /// (off: every channel's bend is the wheel).
+    #[id = "mpe"]
+    pub mpe: BoolParam,
+    /// How far an MPE note's own channel bends it, each way.
+    #[id = "mpbr"]
+    pub mpe_range: IntParam,
     /// Output level, dB (the engine glides to it, so no smoother here).
     #[id = "gain"]
     pub level_db: FloatParam,
@@ -402,6 +409,8 @@ impl Default for StruckParams {
             output: OutputParams {
                 polyphony: IntParam::new("Polyphony", 64, IntRange::Linear { min: 1, max: 128 }).with_unit(" keys"),
                 bend_range: IntParam::new("Bend range", 2, IntRange::Linear { min: 0, max: 24 }).with_unit(" st"),
+                mpe: BoolParam::new("MPE", false),
+                mpe_range: IntParam::new("MPE bend range", 48, IntRange::Linear { min: 1, max: 96 }).with_unit(" st"),
                 level_db: FloatParam::new("Level", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
                     .with_unit(" dB")
                     .with_step_size(0.1)
@@ -504,6 +513,12 @@ impl StruckParams {
         }
     }
 
+    /// MPE's member channels' bend range, semitones, or None with MPE off.
+    /// Reads atomics only: real-time safe.
+    pub fn mpe(&self) -> Option<f32> {
+        self.output.mpe.value().then(|| self.output.mpe_range.value() as f32)
+    }
+
     /// The per-block controls. Reads atomics only: real-time safe.
     pub fn controls(&self) -> Controls {
         Controls {
@@ -561,7 +576,7 @@ mod tests {
         let expected = ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
             .into_iter()
             .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
-            .chain(["poly", "bend", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
+            .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
             .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
             .collect::<Vec<_>>();
         assert_eq!(ids, expected);

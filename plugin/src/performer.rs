@@ -3,7 +3,7 @@
 //! positions, and back from keys that fall silent to the host's voice notices.
 
 use nice_plug::prelude::*;
-use struck_engine::synth::{Controls, Delivery, Event, PressureRouter, Synth, TimedEvent};
+use struck_engine::synth::{BendRouter, Controls, Delivery, Event, PressureRouter, Synth, TimedEvent};
 
 /// Engine events one `process` call gathers before rendering what it has so far
 /// (an incoming event becomes at most [`MAX_EVENTS_PER_HOST_EVENT`] of them).
@@ -31,6 +31,7 @@ pub struct Performer {
     /// Who struck each key last (note id, channel), to name the voice when it ends.
     voices: [(VoiceId, u8); 128],
     pressure: PressureRouter,
+    bends: BendRouter,
     /// Per channel, the low 7 bits a high-resolution velocity prefix (CC 88)
     /// gave the next note-on.
     velocity_low: [Option<u8>; 16],
@@ -46,6 +47,7 @@ impl Performer {
             events: Vec::with_capacity(EVENT_CAPACITY),
             voices: [(None, 0); 128],
             pressure: PressureRouter::default(),
+            bends: BendRouter::default(),
             velocity_low: [None; 16],
             reset_pending: false,
         }
@@ -53,6 +55,12 @@ impl Performer {
 
     pub fn synth(&self) -> &Synth {
         &self.synth
+    }
+
+    /// MPE on, its member channels bending `range` semitones each way, or off
+    /// (None). Real-time safe.
+    pub fn set_mpe(&mut self, range: Option<f32>) {
+        self.bends.set_mpe(range);
     }
 
     /// Offline only (it waits): install the instrument the settings ask for
@@ -86,6 +94,7 @@ impl Performer {
         if std::mem::take(&mut self.reset_pending) {
             self.events.push(TimedEvent::new(0, Event::Reset));
             self.pressure.reset();
+            self.bends.reset();
             self.velocity_low = [None; 16];
         }
         let mut start = 0;
@@ -125,11 +134,14 @@ impl Performer {
                 let channel = channel.number().unwrap_or(0);
                 self.voices[key as usize] = (voice_id.id(), channel);
                 let low = self.velocity_low.get_mut(channel as usize & 15).and_then(Option::take);
+                // Its own bend first: the strike sounds at the note's pitch.
+                self.bends.note_on(key, channel).into_iter().for_each(&mut push);
                 push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
             NoteEvent::NoteOff { key: Key::Number(key), velocity, .. } if key < 128 => {
                 self.pressure.note_off(key);
+                self.bends.note_off(key);
                 push(Event::NoteOff { key, velocity });
             }
             NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
@@ -157,7 +169,11 @@ impl Performer {
             NoteEvent::MidiCC { cc, value, .. } => {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
-            NoteEvent::MidiPitchBend { value, .. } => push(Event::PitchBend(pitch_wheel(value))),
+            NoteEvent::MidiPitchBend { channel, value, .. } => self.bends.pitch_bend(channel, pitch_wheel(value), push),
+            // A CLAP note's tuning expression, semitones.
+            NoteEvent::PolyTuning { key: Key::Number(key), tuning, .. } if key < 128 => {
+                push(self.bends.key_tuning(key, tuning))
+            }
             _ => {}
         }
     }
@@ -434,6 +450,73 @@ mod tests {
         let (low, high) = (level(0), level(127));
         eprintln!("C4 at velocity 64, low bits 0: {low:.3} dB, 127: {high:.3} dB");
         assert!(high - low > 0.02 && high - low < 1.0, "{low:.3} against {high:.3} dB");
+    }
+
+    /// The strongest frequency of `x` within 3 % of `near_hz`, Hz (a fine
+    /// scan of its spectrum under a Hann window).
+    fn pitch_near(x: &[f32], near_hz: f64) -> f64 {
+        let n = x.len() as f64;
+        let power = |f: f64| {
+            let (mut re, mut im) = (0.0, 0.0);
+            for (i, v) in x.iter().enumerate() {
+                let w = 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n).cos();
+                let phase = std::f64::consts::TAU * f * i as f64 / FS;
+                re += w * f64::from(*v) * phase.cos();
+                im += w * f64::from(*v) * phase.sin();
+            }
+            re * re + im * im
+        };
+        let steps = 600;
+        (0..=steps)
+            .map(|i| near_hz * (0.97 + 0.06 * i as f64 / steps as f64))
+            .max_by(|a, b| power(*a).total_cmp(&power(*b)))
+            .unwrap()
+    }
+
+    #[test]
+    fn mpe_channels_bend_their_own_notes_and_clap_tunes_one_note() {
+        let cents = |a: f64, b: f64| 1200.0 * (a / b).log2();
+        // A3 on channel 2 and E4 on channel 3, MPE on (48 semitones each way):
+        // channel 2 bends up 2 semitones, then a CLAP tuning expression puts
+        // E4 down a semitone.
+        let play = |mpe: Option<f32>| {
+            let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+            let (mut p, _workshop) = performer(&wanted);
+            p.set_mpe(mpe);
+            let mut port = Port::new();
+            let bend = NoteEvent::MidiPitchBend { timing: 0, channel: 1, value: (8192.0 + 8191.0 * 2.0 / 48.0) / 16383.0 };
+            port.load(&[note_on(0, 57, 0.7, 1, 1), note_on(0, 64, 0.7, 2, 2), bend]);
+            let first = run(&mut p, &mut port, 1.0, 256);
+            let tune = NoteEvent::PolyTuning {
+                timing: 0,
+                voice_id: VoiceID::ID(2),
+                channel: Channel::Number(2),
+                key: Key::Number(64),
+                tuning: -1.0,
+            };
+            port.load(&[tune]);
+            let second = run(&mut p, &mut port, 1.0, 256);
+            (first, second)
+        };
+        let (a3, e4) = (220.0, 329.628);
+        let (first, second) = play(Some(48.0));
+        let (bent, straight) = (pitch_near(&first[24_000..], a3 * 1.1225), pitch_near(&first[24_000..], e4));
+        let tuned = pitch_near(&second[24_000..], e4 / 1.0595);
+        eprintln!(
+            "MPE: A3 on its channel bent {:.1} cents, E4 beside it {:.1}; E4 tuned {:.1} cents",
+            cents(bent, a3),
+            cents(straight, e4),
+            cents(tuned, e4)
+        );
+        assert!((cents(bent, a3) - 200.0).abs() < 4.0, "A3 at {bent} Hz");
+        assert!(cents(straight, e4).abs() < 4.0, "E4 at {straight} Hz");
+        assert!((cents(tuned, e4) + 100.0).abs() < 4.0, "E4 at {tuned} Hz");
+        // MPE off: channel 2's bend is the wheel (2 semitones of range): both
+        // keys move by 2/48 of 200 cents.
+        let (first, _) = play(None);
+        let (a, e) = (pitch_near(&first[24_000..], a3), pitch_near(&first[24_000..], e4));
+        eprintln!("MPE off: A3 {:.1} cents, E4 {:.1}", cents(a, a3), cents(e, e4));
+        assert!((cents(a, a3) - 8.3).abs() < 3.0 && (cents(e, e4) - 8.3).abs() < 3.0, "{a} {e}");
     }
 
     #[test]

@@ -26,6 +26,10 @@ pub enum Event {
     /// pressure and MPE pressure reach each key held on that channel this way). On
     /// a clavichord it presses the tangent deeper: Bebung.
     Pressure { key: u8, pressure: f32 },
+    /// One key's own pitch offset, in semitones, on top of the pitch wheel:
+    /// an MPE note's channel bend times its range, or a CLAP note's tuning
+    /// expression. It holds until the next one for the key (0: none).
+    KeyBend { key: u8, semitones: f32 },
     /// CC123: every key is released (dampers fall where the pedals allow).
     AllNotesOff,
     /// CC120 / reset: every key falls silent within a few milliseconds, pedals up, bend centred.
@@ -92,6 +96,86 @@ impl PressureRouter {
     }
 }
 
+/// Turns pitch bends into the wheel or, from an MPE controller, into each
+/// note's own bend. With MPE (its lower zone: channel 1 the master, 2-16 one
+/// note each) a member channel's bend, times the member range, reaches the
+/// keys held on that channel as [`Event::KeyBend`], and a key pressed on it
+/// starts from the channel's bend; the master channel's bend moves the wheel
+/// for every key. Without MPE every channel's bend is the wheel. A key bent
+/// once is set straight when it is next pressed outside a bent channel.
+/// Fixed size: real-time safe.
+#[derive(Clone, Debug)]
+pub struct BendRouter {
+    /// The member channels' bend range, semitones; None: MPE off.
+    mpe_range: Option<f32>,
+    channel_of: [Option<u8>; 128],
+    /// Each channel's last bend, -1..=1.
+    channel_bend: [f32; 16],
+    /// Keys with a bend of their own.
+    bent: [bool; 128],
+}
+
+impl Default for BendRouter {
+    fn default() -> Self {
+        Self { mpe_range: None, channel_of: [None; 128], channel_bend: [0.0; 16], bent: [false; 128] }
+    }
+}
+
+impl BendRouter {
+    /// MPE on, its member channels bending over `range` semitones each way (48
+    /// by the MPE specification), or off (None).
+    pub fn set_mpe(&mut self, range: Option<f32>) {
+        self.mpe_range = range.filter(|r| r.is_finite()).map(|r| r.clamp(0.0, 96.0));
+    }
+
+    fn member(&self, channel: u8) -> Option<f32> {
+        self.mpe_range.filter(|_| channel & 15 != 0)
+    }
+
+    /// A key went down on `channel`: its own bend to start from, if it needs one.
+    pub fn note_on(&mut self, key: u8, channel: u8) -> Option<Event> {
+        let k = key as usize & 127;
+        self.channel_of[k] = Some(channel & 15);
+        let semitones = self.member(channel).map_or(0.0, |range| range * self.channel_bend[channel as usize & 15]);
+        let was_bent = std::mem::replace(&mut self.bent[k], semitones != 0.0);
+        (semitones != 0.0 || was_bent).then_some(Event::KeyBend { key, semitones })
+    }
+
+    /// A note's own tuning expression (semitones) for `key`.
+    pub fn key_tuning(&mut self, key: u8, semitones: f32) -> Event {
+        self.bent[key as usize & 127] = semitones != 0.0;
+        Event::KeyBend { key, semitones }
+    }
+
+    /// A key came up (its bend stays with its ringing strings).
+    pub fn note_off(&mut self, key: u8) {
+        self.channel_of[key as usize & 127] = None;
+    }
+
+    /// A pitch bend (-1..=1) on `channel`: the wheel, or each held key's own
+    /// on an MPE member channel, passed to `emit`.
+    pub fn pitch_bend(&mut self, channel: u8, value: f32, mut emit: impl FnMut(Event)) {
+        let channel = channel & 15;
+        let Some(range) = self.member(channel) else {
+            emit(Event::PitchBend(value));
+            return;
+        };
+        self.channel_bend[channel as usize] = value;
+        for key in 0..128 {
+            if self.channel_of[key] == Some(channel) {
+                self.bent[key] = true;
+                emit(Event::KeyBend { key: key as u8, semitones: range * value });
+            }
+        }
+    }
+
+    /// Every key up, every channel centred, no key bent (the synth's reset
+    /// straightens its keys).
+    pub fn reset(&mut self) {
+        *self = Self { mpe_range: self.mpe_range, ..Self::default() };
+    }
+}
+
 /// MIDI controllers Struck answers.
 pub mod cc {
     pub const MOD_WHEEL: u8 = 1;
@@ -137,6 +221,28 @@ impl Event {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mpe_member_channels_bend_their_own_keys_and_the_master_bends_all() {
+        let mut router = BendRouter::default();
+        let mut got = Vec::new();
+        // Off: every channel's bend is the wheel.
+        router.note_on(60, 3);
+        router.pitch_bend(3, 0.5, |e| got.push(e));
+        assert_eq!(got, [Event::PitchBend(0.5)]);
+        router.set_mpe(Some(48.0));
+        got.clear();
+        assert_eq!(router.note_on(64, 2), None);
+        router.pitch_bend(2, 0.25, |e| got.push(e));
+        router.pitch_bend(0, -1.0, |e| got.push(e));
+        assert_eq!(got, [Event::KeyBend { key: 64, semitones: 12.0 }, Event::PitchBend(-1.0)]);
+        // A key pressed on a bent channel starts bent; a bent key pressed on
+        // the master channel is set straight.
+        assert_eq!(router.note_on(67, 2), Some(Event::KeyBend { key: 67, semitones: 12.0 }));
+        router.note_off(64);
+        assert_eq!(router.note_on(64, 0), Some(Event::KeyBend { key: 64, semitones: 0.0 }));
+        assert_eq!(router.note_on(64, 0), None);
+    }
 
     #[test]
     fn channel_pressure_reaches_the_keys_held_on_its_channel() {

@@ -21,7 +21,7 @@ mod workshop;
 
 use serde::{Deserialize, Serialize};
 
-pub use event::{Event, PressureRouter, TimedEvent};
+pub use event::{BendRouter, Event, PressureRouter, TimedEvent};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
@@ -621,12 +621,18 @@ impl Synth {
                     k.set_pressure(pressure as f64);
                 }
             }
+            Event::KeyBend { key, semitones } if semitones.is_finite() => {
+                if let Some((k, _)) = self.current.route(key) {
+                    k.set_tune(2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0));
+                }
+            }
             Event::PitchBend(v) if !v.is_nan() => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
                 self.bend = self.bend_ratio();
             }
             Event::ModWheel(_)
             | Event::Pressure { .. }
+            | Event::KeyBend { .. }
             | Event::UnaCorda(_)
             | Event::Sustain(_)
             | Event::PitchBend(_) => {}
@@ -652,6 +658,9 @@ impl Synth {
                 self.hardness = 1.0;
                 self.wheel = 0.0;
                 self.bend = 1.0;
+                for k in self.current.keys.iter_mut().flatten() {
+                    k.set_tune(1.0);
+                }
             }
         }
     }

@@ -222,6 +222,18 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Output", |ui| {
         slider(ui, "Polyphony", &params.output.polyphony, setter);
         slider(ui, "Bend range", &params.output.bend_range, setter);
+        ui.horizontal(|ui| {
+            ui.add_sized([118.0, 18.0], egui::Label::new("MPE"));
+            let mut mpe = params.output.mpe.value();
+            if ui.checkbox(&mut mpe, "channels 2-16 bend their own notes").changed() {
+                setter.begin_set_parameter(&params.output.mpe);
+                setter.set_parameter(&params.output.mpe, mpe);
+                setter.end_set_parameter(&params.output.mpe);
+            }
+        });
+        if params.output.mpe.value() {
+            slider(ui, "MPE bend range", &params.output.mpe_range, setter);
+        }
         slider(ui, "Level", &params.output.level_db, setter);
         choice_row(ui, setter, &params.output.source, [OutputChoice::Microphones, OutputChoice::BridgeForce], |c| {
             match c {

@@ -45,6 +45,10 @@ pub struct StruckPlugin {
     /// Rendering offline: a change of what the instrument is built from is
     /// built at once and heard from its sample ([`Performer::catch_up`]).
     offline: bool,
+    /// How fast the host asks for audio: a host rendering faster than real
+    /// time is rendering offline, whether or not it says so (Ardour's export
+    /// tells each block, which the wrapper does not pass on).
+    pace: Pace,
     /// What the instrument playing offline was built from.
     built: Option<BuildKey>,
     /// True while the workshop builds an instrument (the panel says so).
@@ -62,6 +66,7 @@ impl Default for StruckPlugin {
             sample_rate_hz: 0.0,
             voice_capacity: 0,
             offline: false,
+            pace: Pace::default(),
             built: None,
             building: Arc::new(AtomicBool::new(false)),
         }
@@ -161,6 +166,7 @@ impl Plugin for StruckPlugin {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
+        let samples = buffer.samples();
         let channels = buffer.as_slice();
         let Some(performer) = self.performer.as_mut() else {
             for channel in channels.iter_mut() {
@@ -168,7 +174,8 @@ impl Plugin for StruckPlugin {
             }
             return ProcessStatus::Normal;
         };
-        if self.offline {
+        let fast = self.pace.faster_than_real_time(samples, self.sample_rate_hz);
+        if self.offline || fast {
             // A host rendering offline does not wait for the clock: what the
             // automation changed is built now and heard from this sample (the
             // block is cut where it changed), and every bounce is the same.
@@ -217,6 +224,41 @@ impl Vst3Plugin for StruckPlugin {
     const VST3_CLASS_ID: [u8; 16] = *b"StruckPhysString";
     const VST3_SUBCATEGORIES: &'static [Vst3SubCategory] =
         &[Vst3SubCategory::Instrument, Vst3SubCategory::Synth, Vst3SubCategory::Stereo];
+}
+
+/// Whether the host asks for audio faster than real time: over each quarter
+/// second of audio, measured against the wall clock. A host playing in real
+/// time cannot deliver it much faster than it is heard (a block or two ahead
+/// at most); one rendering offline does, many times over. Real-time safe (it
+/// reads the clock).
+#[derive(Default)]
+struct Pace {
+    window_start: Option<std::time::Instant>,
+    audio_s: f64,
+    fast: bool,
+}
+
+/// Audio in each window, s, and how many times real time counts as offline.
+const PACE_WINDOW_S: f64 = 0.25;
+const PACE_OFFLINE: f64 = 2.5;
+
+impl Pace {
+    /// Count a block of `samples` at `sample_rate_hz`; whether the last whole
+    /// window came faster than real time.
+    fn faster_than_real_time(&mut self, samples: usize, sample_rate_hz: f64) -> bool {
+        let now = std::time::Instant::now();
+        let start = *self.window_start.get_or_insert(now);
+        if sample_rate_hz > 0.0 {
+            self.audio_s += samples as f64 / sample_rate_hz;
+        }
+        if self.audio_s >= PACE_WINDOW_S {
+            let wall_s = now.duration_since(start).as_secs_f64();
+            self.fast = wall_s * PACE_OFFLINE < self.audio_s;
+            self.window_start = Some(now);
+            self.audio_s = 0.0;
+        }
+        self.fast
+    }
 }
 
 nice_export_clap!(StruckPlugin);

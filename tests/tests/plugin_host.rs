@@ -439,13 +439,18 @@ fn survives_a_long_random_session_without_allocating() {
 /// "Hammer mass" at `start` (normalized) from the beginning and, if
 /// `automated`, moved there at `at` samples, where C4 is struck.
 fn offline_bounce(loaded: &Loaded, start: f64, automated: Option<f64>, at: usize) -> Vec<f32> {
+    bounce(loaded, start, automated, at, RenderMode::Offline)
+}
+
+/// [`offline_bounce`], the host saying it renders in `mode`.
+fn bounce(loaded: &Loaded, start: f64, automated: Option<f64>, at: usize, mode: RenderMode) -> Vec<f32> {
     let mut instance = loaded.instance();
     let ids = param_ids(&mut instance);
     let mass = param(&ids, "Hammer mass");
     {
         let handle = instance.plugin_handle();
         let render: PluginRender = handle.get_extension().expect("render extension");
-        render.set(&handle, RenderMode::Offline).expect("offline rendering");
+        render.set(&handle, mode).expect("the render mode");
         let mut changes = EventBuffer::new();
         changes.push(&set(0, mass, start));
         let mut handle = instance.inactive_plugin_handle().expect("inactive");
@@ -486,6 +491,20 @@ fn offline_an_automated_voicing_is_heard_from_its_sample_and_every_bounce_is_the
     eprintln!("automated against heavy throughout {to_heavy:.1} dB, against light {to_light:.1} dB");
     assert!(to_light > -20.0, "the two masses sound alike ({to_light:.1} dB): no test");
     assert!(to_heavy < -120.0, "the note struck at the change is not the new hammer's ({to_heavy:.1} dB)");
+}
+
+#[test]
+fn a_host_that_renders_faster_than_real_time_without_saying_so_gets_the_same() {
+    // Ardour's export tells each block it is offline, which the wrapper does
+    // not pass on: the plugin sees the host asking for audio many times faster
+    // than real time (after a quarter second of it) and does as offline.
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let at = (0.6 * FS) as usize + 11;
+    let first = bounce(&loaded, 0.2, Some(0.8), at, RenderMode::Realtime);
+    let heavy = bounce(&loaded, 0.8, None, at, RenderMode::Realtime);
+    assert!(rms(&first[at..]) > 1e-3, "the note sounds");
+    assert!(first[at..].iter().zip(&heavy[at..]).all(|(a, b)| a.to_bits() == b.to_bits()), "the new hammer came late");
 }
 
 #[test]

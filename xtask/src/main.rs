@@ -30,7 +30,8 @@ Usage:
   cargo xtask test [--release] [--no-install] [--list]
                    [--only STEP,...] [--skip STEP,...] [--from STEP]
       Every test, as named steps in order: system packages, the plugin bundle,
-      cargo test --workspace, the VST3 in pedalboard. Stops at the first
+      cargo test --workspace, the VST3 in pedalboard, the panel, the standalone
+      over JACK, the VST3 in Ardour (--list names them). Stops at the first
       failure. --release runs them on the release build instead of the dev
       profile's (which keeps debug assertions on).
   cargo xtask piano-scale

@@ -87,6 +87,11 @@ pub const TEST: &[Need] = &[
         enough_if: None,
     },
     Need {
+        packages: &[pkg("ardour", Probe::Command("ardour7-lua"))],
+        why: "Ardour 7 and its headless Lua session tool, for the DAW test",
+        enough_if: None,
+    },
+    Need {
         packages: &[pkg("python3", Probe::Command("python3")), pkg("python3-venv", Probe::PythonVenv)],
         why: "Python with venv and pip, to load the VST3 in pedalboard",
         enough_if: Some(Probe::PythonVenv),
@@ -310,9 +315,12 @@ mod tests {
     #[test]
     fn a_python_that_makes_venvs_needs_no_packages() {
         let absent = missing(TEST, |_| false, |p| p == Probe::PythonVenv);
-        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "jackd2"]);
+        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "jackd2", "ardour"]);
         let absent = missing(TEST, |_| false, |_| false);
-        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "jackd2", "python3", "python3-venv"]);
+        assert_eq!(
+            missing_names(&absent),
+            ["xvfb", "x11-utils", "imagemagick", "jackd2", "ardour", "python3", "python3-venv"]
+        );
     }
 
     #[test]

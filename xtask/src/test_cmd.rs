@@ -37,6 +37,9 @@ pub const PYTHON_REQUIREMENTS: &[&str] =
 pub const PEDALBOARD_SCRIPT: &str = "tests/python/pedalboard_check.py";
 /// The script that plays the standalone over JACK (dummy driver) and records it.
 pub const JACK_SCRIPT: &str = "tests/python/jack_session.py";
+/// The script that drives Ardour 7 headless with the VST3, for every instrument.
+pub const ARDOUR_SCRIPT: &str = "tests/ardour/roundtrip.sh";
+
 /// The script that opens the panel under Xvfb and checks a screenshot of it.
 pub const PANEL_SCRIPT: &str = "tests/python/editor_screenshot.sh";
 
@@ -94,6 +97,11 @@ pub fn steps(options: &TestOptions) -> Vec<Step<'_>> {
             "jack-session",
             "play the standalone over JACK (dummy driver) from another client: pitch, dampers, pedal",
             move || jack_session(release),
+        ),
+        Step::new(
+            "ardour",
+            "every instrument in Ardour 7 (headless): a session saved, reopened and rendered again, the same bytes",
+            ardour,
         ),
     ]
 }
@@ -184,6 +192,15 @@ fn panel(release: bool) -> Result<()> {
     })
 }
 
+fn ardour() -> Result<()> {
+    let (vst3, _) = bundle::vst3_paths()?;
+    if !vst3.exists() {
+        bail!("{} is not there: run the bundle step first", relative(&vst3).display());
+    }
+    let logs = target_dir()?.join("ardour-logs");
+    run(Command::new("bash").arg(relative(&workspace_root().join(ARDOUR_SCRIPT))).arg(relative(&vst3)).arg(relative(&logs)))
+}
+
 fn jack_session(release: bool) -> Result<()> {
     let python = checks_python(&target_dir()?.join("pedalboard-venv"))?;
     let struck = bundle::struck_binary(release)?;
@@ -204,7 +221,10 @@ mod tests {
     fn the_steps_build_before_they_test() {
         let options = TestOptions::default();
         let names: Vec<&str> = steps(&options).iter().map(|s| s.name).collect();
-        assert_eq!(names, ["packages", "lint", "bundle", "footprint", "cargo-test", "pedalboard", "panel", "jack-session"]);
+        assert_eq!(
+            names,
+            ["packages", "lint", "bundle", "footprint", "cargo-test", "pedalboard", "panel", "jack-session", "ardour"]
+        );
     }
 
     #[test]

@@ -219,15 +219,7 @@ impl Phantom {
         }
         // Clear what the last block left past this one's products.
         let (from, to) = (self.running, before.max(self.running).next_multiple_of(LANES).min(self.re.len()));
-        for v in [
-            &mut self.re,
-            &mut self.im,
-            &mut self.pole_re,
-            &mut self.pole_im,
-            &mut self.back_re,
-            &mut self.back_im,
-            &mut self.back_inv,
-        ] {
+        for v in self.arrays() {
             v[from..to].fill(0.0);
         }
         self.running > 0
@@ -259,6 +251,19 @@ impl Phantom {
         gather.give_back(at, &mut self.re[..n], &mut self.im[..n], &self.back_re[..n], &self.back_inv[..n]);
     }
 
+    /// Every per-product array: the products' state, their poles and the poles' inverses.
+    fn arrays(&mut self) -> [&mut Vec<f64>; 7] {
+        [
+            &mut self.re,
+            &mut self.im,
+            &mut self.pole_re,
+            &mut self.pole_im,
+            &mut self.back_re,
+            &mut self.back_im,
+            &mut self.back_inv,
+        ]
+    }
+
     /// Room the products need in a gathering.
     pub fn room(&self) -> usize {
         self.re.len()
@@ -267,15 +272,7 @@ impl Phantom {
     /// Forget the products in play.
     pub fn silence(&mut self) {
         self.running = 0;
-        for v in [
-            &mut self.re,
-            &mut self.im,
-            &mut self.pole_re,
-            &mut self.pole_im,
-            &mut self.back_re,
-            &mut self.back_im,
-            &mut self.back_inv,
-        ] {
+        for v in self.arrays() {
             v.fill(0.0);
         }
     }

@@ -204,33 +204,30 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         group(ui, "Tangent", |ui| {
             slider(ui, "Depth", &params.tangent.depth, setter);
             slider(ui, "Bebung", &params.tangent.bebung, setter);
-            ui.horizontal(|ui| {
-                ui.add_sized([118.0, 18.0], egui::Label::new("Fretted"));
-                let mut fretted = params.tangent.fretted.value();
-                if ui.checkbox(&mut fretted, "keys share strings").changed() {
-                    setter.begin_set_parameter(&params.tangent.fretted);
-                    setter.set_parameter(&params.tangent.fretted, fretted);
-                    setter.end_set_parameter(&params.tangent.fretted);
-                }
-            });
+            toggle(ui, "Fretted", "keys share strings", &params.tangent.fretted, setter);
             ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
         });
     }
+}
+
+/// A labelled checkbox for an on/off parameter, `what` saying what on means.
+fn toggle(ui: &mut Ui, label: &str, what: &str, param: &BoolParam, setter: &ParamSetter) {
+    ui.horizontal(|ui| {
+        ui.add_sized([118.0, 18.0], egui::Label::new(label));
+        let mut on = param.value();
+        if ui.checkbox(&mut on, what).changed() {
+            setter.begin_set_parameter(param);
+            setter.set_parameter(param, on);
+            setter.end_set_parameter(param);
+        }
+    });
 }
 
 fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
     group(ui, "Output", |ui| {
         slider(ui, "Polyphony", &params.output.polyphony, setter);
         slider(ui, "Bend range", &params.output.bend_range, setter);
-        ui.horizontal(|ui| {
-            ui.add_sized([118.0, 18.0], egui::Label::new("MPE"));
-            let mut mpe = params.output.mpe.value();
-            if ui.checkbox(&mut mpe, "channels 2-16 bend their own notes").changed() {
-                setter.begin_set_parameter(&params.output.mpe);
-                setter.set_parameter(&params.output.mpe, mpe);
-                setter.end_set_parameter(&params.output.mpe);
-            }
-        });
+        toggle(ui, "MPE", "channels 2-16 bend their own notes", &params.output.mpe, setter);
         if params.output.mpe.value() {
             slider(ui, "MPE bend range", &params.output.mpe_range, setter);
         }

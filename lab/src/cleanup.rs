@@ -16,6 +16,9 @@ use std::time::Duration;
 /// Exit status after a stop signal (128 + SIGINT, as shells report it).
 pub const EXIT_INTERRUPTED: u8 = 130;
 
+/// What a command stopped by a signal says (after its name).
+pub const INTERRUPTED_MESSAGE: &str = "interrupted; nothing was written";
+
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 pub struct Listed {
@@ -97,7 +100,7 @@ pub fn install(command: &'static str) {
         for dir in l.dirs.iter().rev() {
             let _ = std::fs::remove_dir(dir);
         }
-        eprintln!("{command}: {}", crate::cli::INTERRUPTED);
+        eprintln!("{command}: {INTERRUPTED_MESSAGE}");
         std::process::exit(i32::from(EXIT_INTERRUPTED));
     });
 }

@@ -14,8 +14,8 @@ pub struct Failure {
     pub message: String,
 }
 
-/// What a command interrupted by a stop signal says.
-pub const INTERRUPTED: &str = "interrupted; nothing was written";
+/// What a command stopped by a signal says (after its name).
+pub use crate::cleanup::INTERRUPTED_MESSAGE as INTERRUPTED;
 
 impl Failure {
     pub fn bad_input(message: impl Into<String>) -> Self {

@@ -269,6 +269,11 @@ pub(crate) struct Key {
     pressure_now: f64,
     /// Its own pitch offset as a ratio ([`Self::set_tune`]).
     tune: f64,
+    /// Its own output gain, the gain it glides to and its step a sample
+    /// ([`Self::set_volume`]).
+    volume: f64,
+    volume_to: f64,
+    volume_step: f64,
     /// How much deeper full pressure presses a tangent, as a fraction of its depth.
     bebung: f64,
     /// The pitch the poles were last set for.
@@ -436,6 +441,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             pressure: 0.0,
             pressure_now: 0.0,
             tune: 1.0,
+            volume: 1.0,
+            volume_to: 1.0,
+            volume_step: 0.0,
             bebung: 0.0,
             pitch_set: 1.0,
             fade: 1.0,
@@ -718,6 +726,15 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     pub fn set_tune(&mut self, ratio: f64) {
         if ratio.is_finite() && ratio > 0.0 {
             self.tune = ratio;
+        }
+    }
+
+    /// Its own output gain (1 as built), reached in even steps over a control
+    /// block's samples (however the blocks are cut).
+    pub fn set_volume(&mut self, gain: f64) {
+        if gain.is_finite() && gain >= 0.0 {
+            self.volume_to = gain.min(16.0);
+            self.volume_step = (self.volume_to - self.volume) / CONTROL_BLOCK as f64;
         }
     }
 
@@ -1121,16 +1138,22 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         scratch.fill(0.0);
         self.render(scratch, contact);
         let glide = self.strike_gain != self.strike_gain_to;
-        if !glide && self.fade_step == 0.0 {
+        if !glide && self.fade_step == 0.0 && self.volume_step == 0.0 {
             // Most stretches: one gain throughout.
-            let (g, f, s) = (self.gain_per_n, self.fade, self.strike_gain);
+            let (g, f, s) = (self.gain_per_n * self.volume, self.fade, self.strike_gain);
             scratch.iter_mut().for_each(|v| *v = *v * g * f * s);
         } else {
             for v in scratch.iter_mut() {
                 if glide {
                     self.strike_gain += (self.strike_gain_to - self.strike_gain) * self.strike_glide;
                 }
-                *v = *v * self.gain_per_n * self.fade * self.strike_gain;
+                if self.volume_step != 0.0 {
+                    self.volume += self.volume_step;
+                    if (self.volume - self.volume_to) * self.volume_step >= 0.0 {
+                        (self.volume, self.volume_step) = (self.volume_to, 0.0);
+                    }
+                }
+                *v = *v * self.gain_per_n * self.volume * self.fade * self.strike_gain;
                 if self.fade_step != 0.0 {
                     self.fade = (self.fade + self.fade_step).clamp(0.0, 1.0);
                     if self.fade >= 1.0 && self.fade_step > 0.0 {
@@ -1273,6 +1296,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.pressure = old.pressure;
         self.pressure_now = old.pressure_now;
         self.tune = old.tune;
+        (self.volume, self.volume_to, self.volume_step) = (old.volume, old.volume_to, old.volume_step);
         if self.bridge_force_n.len() == old.bridge_force_n.len() {
             self.bridge_force_n.copy_from_slice(&old.bridge_force_n);
         }

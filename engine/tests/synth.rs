@@ -106,6 +106,8 @@ fn session() -> Vec<(f64, Event)> {
         (0.05, Event::Sustain(1.0)),
         (0.13, Event::NoteOff { key: 60, velocity: 0.5 }),
         (0.2, Event::PitchBend(0.3)),
+        (0.2003, Event::KeyVolume { key: 64, gain: 0.4 }),
+        (0.2051, Event::KeyBend { key: 64, semitones: 0.7 }),
         (0.21, Event::NoteOn { key: 60, velocity: 1.0 }),
         (0.25, Event::NoteOff { key: 64, velocity: 0.5 }),
         (0.3, Event::Sustain(0.4)),

@@ -32,6 +32,8 @@ pub struct Performer {
     voices: [(VoiceId, u8); 128],
     pressure: PressureRouter,
     bends: BendRouter,
+    /// Keys whose volume a CLAP note's expression moved (set back at their next note-on).
+    voiced: [bool; 128],
     /// Per channel, the low 7 bits a high-resolution velocity prefix (CC 88)
     /// gave the next note-on.
     velocity_low: [Option<u8>; 16],
@@ -48,6 +50,7 @@ impl Performer {
             voices: [(None, 0); 128],
             pressure: PressureRouter::default(),
             bends: BendRouter::default(),
+            voiced: [false; 128],
             velocity_low: [None; 16],
             reset_pending: false,
         }
@@ -136,6 +139,9 @@ impl Performer {
                 let low = self.velocity_low.get_mut(channel as usize & 15).and_then(Option::take);
                 // Its own bend first: the strike sounds at the note's pitch.
                 self.bends.note_on(key, channel).into_iter().for_each(&mut push);
+                if std::mem::take(&mut self.voiced[key as usize]) {
+                    push(Event::KeyVolume { key, gain: 1.0 });
+                }
                 push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
@@ -170,6 +176,11 @@ impl Performer {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
             NoteEvent::MidiPitchBend { channel, value, .. } => self.bends.pitch_bend(channel, pitch_wheel(value), push),
+            // A CLAP note's volume expression, a gain.
+            NoteEvent::PolyVolume { key: Key::Number(key), gain, .. } if key < 128 => {
+                self.voiced[key as usize] = gain != 1.0;
+                push(Event::KeyVolume { key, gain })
+            }
             // A CLAP note's tuning expression, semitones.
             NoteEvent::PolyTuning { key: Key::Number(key), tuning, .. } if key < 128 => {
                 push(self.bends.key_tuning(key, tuning))
@@ -511,6 +522,37 @@ mod tests {
         assert!((cents(bent, a3) - 200.0).abs() < 4.0, "A3 at {bent} Hz");
         assert!(cents(straight, e4).abs() < 4.0, "E4 at {straight} Hz");
         assert!((cents(tuned, e4) + 100.0).abs() < 4.0, "E4 at {tuned} Hz");
+        // A volume expression of 0.5 on E4 alone: the second second, E4 is 6 dB
+        // down against the same without it, A3 beside it unchanged.
+        let level = |with: bool| {
+            let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+            let (mut p, _workshop) = performer(&wanted);
+            let mut port = Port::new();
+            port.load(&[note_on(0, 57, 0.7, 1, 1), note_on(0, 64, 0.7, 2, 2)]);
+            run(&mut p, &mut port, 0.5, 256);
+            let quieter = NoteEvent::PolyVolume {
+                timing: 0,
+                voice_id: VoiceID::ID(2),
+                channel: Channel::Number(2),
+                key: Key::Number(64),
+                gain: 0.5,
+            };
+            let events = [quieter];
+            port.load(if with { &events[..] } else { &[] });
+            let out = run(&mut p, &mut port, 1.0, 256);
+            let band = |f: f64| {
+                let (re, im) = out[12_000..].iter().enumerate().fold((0.0, 0.0), |(re, im), (i, v)| {
+                    let phase = std::f64::consts::TAU * f * i as f64 / FS;
+                    (re + f64::from(*v) * phase.cos(), im + f64::from(*v) * phase.sin())
+                });
+                10.0 * (re * re + im * im).log10()
+            };
+            (band(pitch_near(&out[12_000..], a3)), band(pitch_near(&out[12_000..], e4)))
+        };
+        let ((a_plain, e_plain), (a_quiet, e_quiet)) = (level(false), level(true));
+        eprintln!("volume 0.5 on E4: E4 {:+.2} dB, A3 {:+.2} dB", e_quiet - e_plain, a_quiet - a_plain);
+        assert!((e_quiet - e_plain + 6.02).abs() < 0.5, "E4 {:+.2} dB", e_quiet - e_plain);
+        assert!((a_quiet - a_plain).abs() < 0.5, "A3 {:+.2} dB", a_quiet - a_plain);
         // MPE off: channel 2's bend is the wheel (2 semitones of range): both
         // keys move by 2/48 of 200 cents.
         let (first, _) = play(None);

@@ -30,6 +30,9 @@ pub enum Event {
     /// an MPE note's channel bend times its range, or a CLAP note's tuning
     /// expression. It holds until the next one for the key (0: none).
     KeyBend { key: u8, semitones: f32 },
+    /// One key's own output gain (a CLAP note's volume expression), 1 as
+    /// built; it glides there over the next stretch and holds until the next.
+    KeyVolume { key: u8, gain: f32 },
     /// CC123: every key is released (dampers fall where the pedals allow).
     AllNotesOff,
     /// CC120 / reset: every key falls silent within a few milliseconds, pedals up, bend centred.

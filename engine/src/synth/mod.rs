@@ -621,6 +621,11 @@ impl Synth {
                     k.set_pressure(pressure as f64);
                 }
             }
+            Event::KeyVolume { key, gain } if gain.is_finite() => {
+                if let Some((k, _)) = self.current.route(key) {
+                    k.set_volume(f64::from(gain));
+                }
+            }
             Event::KeyBend { key, semitones } if semitones.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.set_tune(2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0));
@@ -633,6 +638,7 @@ impl Synth {
             Event::ModWheel(_)
             | Event::Pressure { .. }
             | Event::KeyBend { .. }
+            | Event::KeyVolume { .. }
             | Event::UnaCorda(_)
             | Event::Sustain(_)
             | Event::PitchBend(_) => {}
@@ -660,6 +666,7 @@ impl Synth {
                 self.bend = 1.0;
                 for k in self.current.keys.iter_mut().flatten() {
                     k.set_tune(1.0);
+                    k.set_volume(1.0);
                 }
             }
         }

@@ -621,7 +621,9 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     ) -> bool {
         // A partial running in the gathering is moved there; one it does not
         // hold (culled, or past a string's running modes) needs them back.
-        let held = |i: usize, s: &StruckString| strings & (1 << i) == 0 || partial >= s.bank().len() || partial < s.bank().running();
+        let held = |i: usize, s: &StruckString| {
+            strings & (1 << i) == 0 || partial >= s.bank().len() || partial < s.bank().running()
+        };
         if self.gather_live && !self.strings.iter().enumerate().all(|(i, s)| held(i, s)) {
             self.settle();
         }
@@ -901,7 +903,6 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
 
     /// Every note of the course comes up, the sustain pedal at `sustain`.
     pub fn release_all(&mut self, sustain: f64) {
-        self.settle();
         for note in 0..self.notes.len() {
             self.release(note, 0.5, sustain);
         }
@@ -1176,7 +1177,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         let (Some((start, speed)), Some(fs)) = (self.bed_pulse, self.strings.first().map(StruckString::sample_rate_hz)) else {
             return;
         };
-        let gain = self.gain_per_n * self.fade * self.noise.key_bed;
+        // The key's own volume (a note expression) takes its knock with it.
+        let gain = self.gain_per_n * self.volume * self.fade * self.noise.key_bed;
         for (t, o) in out.iter_mut().enumerate() {
             *o += gain * action::key_bed_force_n(start + t, speed, fs);
         }

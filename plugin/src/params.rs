@@ -568,6 +568,32 @@ mod tests {
         assert_eq!(p.kind(), InstrumentKind::Piano);
     }
 
+    /// The offline path compares build keys instead of settings (which
+    /// allocate): every parameter that changes what the instrument is built
+    /// from must change the key. The key moves with nothing else but the
+    /// Scala temperament chosen with no scale loaded (which plays equal
+    /// temperament: a catch-up that builds nothing new).
+    #[test]
+    fn the_build_key_changes_whenever_the_settings_do() {
+        let mut changed = 0;
+        for (id, _, _) in StruckParams::default().param_map() {
+            let p = StruckParams::default();
+            let map = p.param_map();
+            let (_, param, _) = map.iter().find(|(i, _, _)| *i == id).unwrap();
+            let (settings, key) = (p.settings(48_000.0), p.build_key());
+            // SAFETY: as a host does, from one thread, on a parameter alive for the call.
+            unsafe {
+                let now = param.unmodulated_normalized_value();
+                param._internal_set_normalized_value(if now > 0.5 { 0.0 } else { 1.0 });
+            }
+            let (settings_moved, key_moved) = (p.settings(48_000.0) != settings, p.build_key() != key);
+            assert!(!settings_moved || key_moved, "{id}: the settings moved, the build key did not");
+            assert!(settings_moved || !key_moved || id == "temp", "{id}: the build key moved alone");
+            changed += usize::from(key_moved);
+        }
+        assert!(changed >= 15, "only {changed} parameters move the build key");
+    }
+
     #[test]
     fn ids_are_short_unique_and_grouped() {
         let p = StruckParams::default();

@@ -55,6 +55,8 @@ pub(crate) const MAX_NOTES: usize = 32;
 /// Time constant smoothing the finger's pressure on a tangent (aftertouch), s: a
 /// player's Bebung is a few hertz at most, MIDI pressure comes in steps.
 const PRESSURE_SMOOTHING_S: f64 = 0.015;
+/// The deepest Bebung, cents at full pressure.
+pub const MAX_BEBUNG_CENTS: f64 = 100.0;
 /// The strings are retuned when their pitch has moved by more than this ratio
 /// (0.002 cent).
 const RETUNE_THRESHOLD: f64 = 1.0e-6;
@@ -274,7 +276,9 @@ pub(crate) struct Key {
     volume: f64,
     volume_to: f64,
     volume_step: f64,
-    /// How much deeper full pressure presses a tangent, as a fraction of its depth.
+    /// How far full pressure raises a tangent's pitch, cents, and the
+    /// tension's factor that makes it (the pitch's squared).
+    bebung_cents: f64,
     bebung: f64,
     /// The pitch the poles were last set for.
     pitch_set: f64,
@@ -444,7 +448,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             volume: 1.0,
             volume_to: 1.0,
             volume_step: 0.0,
-            bebung: 0.0,
+            bebung_cents: 0.0,
+            bebung: 1.0,
             pitch_set: 1.0,
             fade: 1.0,
             fade_step: 0.0,
@@ -740,8 +745,13 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
     }
 
-    pub fn set_bebung(&mut self, bebung: f64) {
-        self.bebung = bebung;
+    /// How far full pressure raises a held tangent's pitch, cents (Bebung).
+    pub fn set_bebung(&mut self, cents: f64) {
+        if cents != self.bebung_cents {
+            self.bebung_cents = cents;
+            // The tension's factor over the rest press's (the pitch's, squared).
+            self.bebung = if cents.is_finite() { 2f64.powf(cents.clamp(0.0, MAX_BEBUNG_CENTS) / 600.0) } else { 1.0 };
+        }
     }
 
     /// The MIDI keys that play this course, with their note numbers.
@@ -960,13 +970,20 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
     /// The strings' pitch over their own: the bend, the speaking note's interval
     /// and, under a tangent, the stretch of the press. A tangent holding the end at
     /// W raises the tension by the factor 1 + s W^2 and the pitch by its square
-    /// root; the finger's pressure presses deeper by up to `bebung` of the depth
-    /// (Bebung: the pitch follows the finger).
+    /// root. The finger's pressure presses deeper (Bebung: the depth follows
+    /// the finger), at full pressure to the depth W_f whose stretch raises the
+    /// pitch by the Bebung's cents over the rest press D: 1 + s W_f^2 =
+    /// (1 + s D^2) 2^(cents / 600).
     fn pitch(&self, bend: f64) -> f64 {
         let note = &self.notes[self.speaking];
         let stretch = match note.exciter {
-            ExciterDesign::Tangent { stretch_per_m2, .. } => {
-                let w = self.strings[note.struck.start].tangent_position_m() * (1.0 + self.bebung * self.pressure_now);
+            ExciterDesign::Tangent { stretch_per_m2, displacement_m } => {
+                let mut w = self.strings[note.struck.start].tangent_position_m();
+                if self.pressure_now > 0.0 && stretch_per_m2 > 0.0 {
+                    let s = stretch_per_m2;
+                    let full = (((1.0 + s * displacement_m * displacement_m) * self.bebung - 1.0) / s).sqrt();
+                    w += self.pressure_now * (full - displacement_m);
+                }
                 tangent::stretched_pitch_ratio(stretch_per_m2, w)
             }
             _ => 1.0,
@@ -1297,6 +1314,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.speaking = old.speaking.min(self.notes.len() - 1);
         self.pressure = old.pressure;
         self.pressure_now = old.pressure_now;
+        (self.bebung_cents, self.bebung) = (old.bebung_cents, old.bebung);
         self.tune = old.tune;
         (self.volume, self.volume_to, self.volume_step) = (old.volume, old.volume_to, old.volume_step);
         if self.bridge_force_n.len() == old.bridge_force_n.len() {

@@ -148,7 +148,15 @@ impl Preset {
         within("controls.touch_shape", c.touch_shape, 0.1, 10.0, "")?;
         within("controls.output_gain", c.output_gain, 0.0, 100.0, "")?;
         within("controls.bend_range_semitones", c.bend_range_semitones, 0.0, 48.0, " semitones")?;
-        within("controls.bebung", c.bebung, 0.0, 1.0, "")?;
+        within("controls.bebung_cents", c.bebung_cents, 0.0, crate::synth::MAX_BEBUNG_CENTS, " cents")?;
+        within("controls.velocity_floor", c.velocity_floor, 0.0, 1.0, "")?;
+        within("controls.velocity_ceiling", c.velocity_ceiling, 0.0, 1.0, "")?;
+        if c.velocity_ceiling <= c.velocity_floor {
+            return Err(field(
+                "controls.velocity_ceiling",
+                format!("must be above the floor {} (got {})", c.velocity_floor, c.velocity_ceiling),
+            ));
+        }
         within("controls.sympathy", c.sympathy, 0.0, 1.0, "")?;
         for (name, value) in [
             ("phantom", c.phantom),
@@ -434,7 +442,9 @@ mod tests {
             instrument: Some(InstrumentKind::Fortepiano),
             voicing: Voicing { felt_hysteresis: 2.5, board_irregularity: 0.25, fretted: true, ..Voicing::default() },
             controls: Controls {
-                bebung: 0.5,
+                bebung_cents: 35.0,
+                velocity_floor: 0.1,
+                velocity_ceiling: 0.85,
                 sympathy: 0.3,
                 phantom: 3.5,
                 key_noise: 0.0,
@@ -445,7 +455,17 @@ mod tests {
             ..Preset::default()
         };
         let json = preset.to_json();
-        for field in ["felt_hysteresis", "sympathy", "phantom", "key_noise", "damper_noise", "pedal_noise"] {
+        for field in [
+            "felt_hysteresis",
+            "sympathy",
+            "phantom",
+            "key_noise",
+            "damper_noise",
+            "pedal_noise",
+            "bebung_cents",
+            "velocity_floor",
+            "velocity_ceiling",
+        ] {
             assert!(json.contains(&format!("\"{field}\"")), "{field} is written: {json}");
         }
         assert_eq!(Preset::parse(&json).unwrap(), preset);
@@ -476,6 +496,12 @@ mod tests {
             (r#"{"controls": {"damper_noise": 4.5}}"#, "controls.damper_noise"),
             (r#"{"controls": {"pedal_noise": "loud"}}"#, "controls.pedal_noise: invalid type"),
             (r#"{"controls": {"sympathetic": 1}}"#, "controls.sympathetic: unknown field"),
+            (r#"{"controls": {"bebung_cents": 150}}"#, "controls.bebung_cents: must be from 0 to 100 cents (got 150)"),
+            (r#"{"controls": {"velocity_floor": -0.1}}"#, "controls.velocity_floor: must be from 0 to 1"),
+            (
+                r#"{"controls": {"velocity_floor": 0.6, "velocity_ceiling": 0.5}}"#,
+                "controls.velocity_ceiling: must be above the floor 0.6 (got 0.5)",
+            ),
             (r#"{"instrument": "organ"}"#, "instrument: unknown variant `organ`"),
             (r#"{"name": 3}"#, "name: invalid type"),
             (r#"{"tuning": {"a4_hz": 500}}"#, "tuning.a4_hz: must be from 380 to 480 Hz (got 500)"),

@@ -148,7 +148,8 @@ fn restriking_a_ringing_key_continues_without_a_click() {
 #[test]
 fn dampers_pedals_and_half_pedal() {
     let level_after_release = |extra: &[(f64, Event)]| {
-        let mut events = vec![(0.0, Event::NoteOn { key: 48, velocity: 0.8 }), (0.3, Event::NoteOff { key: 48, velocity: 0.5 })];
+        let mut events =
+            vec![(0.0, Event::NoteOn { key: 48, velocity: 0.8 }), (0.3, Event::NoteOff { key: 48, velocity: 0.5 })];
         events.extend_from_slice(extra);
         let out = render(&mut synth(InstrumentKind::Piano), 1.2, &events, 512);
         rms(window(&out, 0.9, 1.2)) / rms(window(&out, 0.2, 0.3))
@@ -299,6 +300,12 @@ fn velocity_curve_maps_the_touch_range() {
     assert_eq!(c.touch(range, 0.5).unit(), "m/s");
     let hard = Controls { touch_shape: 2.0, ..c };
     assert!(hard.touch(range, 0.5).value() < c.touch(range, 0.5).value());
+    // A player whose softest is 20 and loudest 100 plays the whole range.
+    let learnt = Controls { velocity_floor: 20.0 / 127.0, velocity_ceiling: 100.0 / 127.0, ..c };
+    assert!((learnt.touch(range, 100.0 / 127.0).value() - max).abs() < 1e-9);
+    assert!((learnt.touch(range, 110.0 / 127.0).value() - max).abs() < 1e-9);
+    assert!((learnt.touch(range, 20.0 / 127.0).value() - min).abs() < 1e-9);
+    assert!((learnt.touch(range, 60.0 / 127.0).value() - c.touch(range, 0.5).value()).abs() < 1e-9);
     let narrow = Controls { touch_min: 0.5, touch_max: 0.5, ..c };
     assert!((narrow.touch(range, 0.1).value() - narrow.touch(range, 0.9).value()).abs() < 1e-12);
     // A harpsichord's velocity lifts its plectrum: millimetres, not a speed.
@@ -382,7 +389,11 @@ fn the_live_view_shows_the_strike_and_the_output() {
     let peak = frame.strike_shape_m.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).unwrap();
     let n = frame.strike_shape_m.len() as f32 - 1.0;
     assert!(peak.1.abs() > 1e-5, "no picture of the string at peak contact");
-    assert!((peak.0 as f32 / n - frame.strike_hammer.unwrap().0).abs() < 0.1, "peak at {} of {n}, hammer at {at}", peak.0);
+    assert!(
+        (peak.0 as f32 / n - frame.strike_hammer.unwrap().0).abs() < 0.1,
+        "peak at {} of {n}, hammer at {at}",
+        peak.0
+    );
     assert!(frame.strike_shape_m[0] == 0.0 && frame.strike_shape_m[n as usize].abs() < 1e-3 * peak.1.abs());
     assert!(frame.shape_m.iter().any(|y| y.abs() > 0.0));
     let mut samples = Vec::new();
@@ -480,23 +491,35 @@ fn a_clavichord_press_raises_the_pitch_as_the_stretch_says() {
 }
 
 #[test]
-fn bebung_bends_a_held_clavichord_note_smoothly() {
-    let key = 38;
-    let f_key = struck_engine::design::key_frequency_hz(key);
-    let voicing = Voicing { unison_detune: 0.0, ..Voicing::default() };
-    let events = [(0.0, Event::NoteOn { key, velocity: 0.8 }), (1.0, Event::Pressure { key, pressure: 1.0 })];
-    let mut synth = clavichord(voicing);
-    synth.set_controls(Controls { bebung: 0.25, ..bridge() });
-    let out = render(&mut synth, 3.0, &events, 256);
-    let before = fine_peak(window(&out, 0.2, 1.0), f_key);
-    let after = fine_peak(window(&out, 1.2, 3.0), f_key);
-    // Full pressure presses 25 % deeper: from 2 mm to 2.5 mm.
-    let expected = clavichord_pitch_rise_cents(key, 2.5e-3) - clavichord_pitch_rise_cents(key, 2.0e-3);
-    assert!((cents(after, before) - expected).abs() < 0.3, "{:.2} cents, expected {expected:.2}", cents(after, before));
-    // No click where the pressure comes.
-    let i = (1.0 * FS) as usize;
-    let steps = |a: usize, b: usize| out[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
-    assert!(steps(i, i + 2400) <= 1.2 * steps(i - 4800, i), "a click under the finger");
+fn bebung_bends_a_held_clavichord_note_smoothly_by_its_range() {
+    // Full pressure raises the held note by the Bebung's range: the tangent
+    // presses deeper and the string, stretched over it, rises (with the square
+    // of the depth); half pressure, half as deep, a little under half as far.
+    for (key, range) in [(38, 30.0), (57, 30.0), (57, 10.0), (76, 50.0)] {
+        let f_key = struck_engine::design::key_frequency_hz(key);
+        let voicing = Voicing { unison_detune: 0.0, ..Voicing::default() };
+        let events = [
+            (0.0, Event::NoteOn { key, velocity: 0.8 }),
+            (1.0, Event::Pressure { key, pressure: 0.5 }),
+            (2.0, Event::Pressure { key, pressure: 1.0 }),
+            (3.0, Event::Pressure { key, pressure: 0.0 }),
+        ];
+        let mut synth = clavichord(voicing);
+        synth.set_controls(Controls { bebung_cents: range, ..bridge() });
+        let out = render(&mut synth, 4.0, &events, 256);
+        let pitch = |from: f64, to: f64| fine_peak(window(&out, from, to), f_key);
+        let rest = pitch(0.2, 1.0);
+        let (half, full, back) =
+            (cents(pitch(1.2, 2.0), rest), cents(pitch(2.2, 3.0), rest), cents(pitch(3.2, 4.0), rest));
+        println!("key {key}, Bebung {range} cents: half pressure {half:.2}, full {full:.2}, let go {back:.2} cents");
+        assert!((full - range).abs() < 0.5, "key {key}: {full:.2} cents at full pressure, expected {range}");
+        assert!(half > 0.2 * range && half < 0.5 * range, "key {key}: {half:.2} cents at half pressure");
+        assert!(back.abs() < 0.3, "key {key}: {back:.2} cents after letting go");
+        // No click where the pressure comes.
+        let i = (2.0 * FS) as usize;
+        let steps = |a: usize, b: usize| out[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
+        assert!(steps(i, i + 2400) <= 1.2 * steps(i - 4800, i), "key {key}: a click under the finger");
+    }
 }
 
 #[test]
@@ -569,7 +592,9 @@ fn a_soft_release_lets_the_damper_down_slowly_and_the_note_fades_longer() {
         (at..out.len() - frame).step_by(frame / 4).find(|&i| level(i) < start * 0.01).map(|i| i - at)
     };
     let (hard, middling, soft) = (fade(1.0).unwrap(), fade(0.5).unwrap(), fade(0.1).unwrap());
-    eprintln!("C4 down 40 dB after its release in {hard} samples at release velocity 1, {middling} at 0.5, {soft} at 0.1");
+    eprintln!(
+        "C4 down 40 dB after its release in {hard} samples at release velocity 1, {middling} at 0.5, {soft} at 0.1"
+    );
     // The felt settles in 7.5, 15 and 240 ms (a ramp of the damping: half its
     // time adds to the fade); the damper's decay takes about 0.15 s besides.
     assert!(hard <= middling && middling < soft, "{hard} {middling} {soft}");

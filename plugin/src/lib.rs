@@ -10,6 +10,7 @@
 //! through lock-free queues and renders.
 
 pub mod editor;
+pub mod keyboard;
 pub mod params;
 pub mod performer;
 pub mod standalone;
@@ -23,6 +24,7 @@ use nice_plug_egui::{EguiEditor, EguiEditorState};
 use struck_engine::synth::{Instrument, Synth, Workshop};
 
 use crate::editor::{ScopeFeed, SharedScope, StruckEditor};
+use crate::keyboard::KeyboardLink;
 use crate::params::{BuildKey, StruckParams};
 use crate::performer::{EventPort, Performer, VoiceId};
 
@@ -53,6 +55,8 @@ pub struct StruckPlugin {
     built: Option<BuildKey>,
     /// True while the workshop builds an instrument (the panel says so).
     building: Arc<AtomicBool>,
+    /// The panel's keyboard and what it shows of the keys and pedals.
+    keyboard: Arc<KeyboardLink>,
 }
 
 impl Default for StruckPlugin {
@@ -69,6 +73,7 @@ impl Default for StruckPlugin {
             pace: Pace::default(),
             built: None,
             building: Arc::new(AtomicBool::new(false)),
+            keyboard: Arc::new(KeyboardLink::default()),
         }
     }
 }
@@ -109,7 +114,13 @@ impl Plugin for StruckPlugin {
             // A standalone with no display plays headless rather than failing to open a window.
             return None;
         }
-        editor::create(self.params.clone(), self.scope.clone(), self.editor_state.clone(), self.building.clone())
+        editor::create(
+            self.params.clone(),
+            self.scope.clone(),
+            self.editor_state.clone(),
+            self.building.clone(),
+            self.keyboard.clone(),
+        )
     }
 
     /// Builds the first instrument synchronously and starts the workshop. Allocates.
@@ -139,7 +150,7 @@ impl Plugin for StruckPlugin {
                 move || Some(params.settings(sample_rate_hz)),
                 self.building.clone(),
             );
-            self.performer = Some(Performer::new(synth, delivery));
+            self.performer = Some(Performer::new(synth, delivery).with_keyboard(self.keyboard.clone()));
             self.workshop = Some(workshop);
             *self.scope.lock().unwrap_or_else(|e| e.into_inner()) = Some(ScopeFeed { scope, sample_rate_hz });
             self.sample_rate_hz = sample_rate_hz;

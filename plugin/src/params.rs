@@ -156,6 +156,12 @@ pub struct TouchParams {
     /// Velocity curve exponent: 1 even, above 1 needs a harder touch.
     #[id = "tshp"]
     pub shape: FloatParam,
+    /// The player's softest and loudest MIDI velocity: they play the softest
+    /// and hardest touch (a velocity learn sets them).
+    #[id = "vflo"]
+    pub velocity_floor: IntParam,
+    #[id = "vfhi"]
+    pub velocity_ceiling: IntParam,
 }
 
 #[derive(Params)]
@@ -187,8 +193,9 @@ pub struct TangentParams {
     /// How far the tangent lifts the strings (1 = as built, 2 mm on a 0.8 m string).
     #[id = "tdep"]
     pub depth: FloatParam,
-    /// How much deeper full aftertouch presses (Bebung).
-    #[id = "bebg"]
+    /// How far full aftertouch raises a held note, cents (Bebung: the
+    /// tangent presses deeper).
+    #[id = "bebc"]
     pub bebung: FloatParam,
     /// Fretted: neighbouring keys share a pair of strings; the higher tangent wins.
     #[id = "fret"]
@@ -283,7 +290,8 @@ pub enum PerspectiveChoice {
 }
 
 impl PerspectiveChoice {
-    pub const ALL: [PerspectiveChoice; 3] = [PerspectiveChoice::Close, PerspectiveChoice::Player, PerspectiveChoice::Lid];
+    pub const ALL: [PerspectiveChoice; 3] =
+        [PerspectiveChoice::Close, PerspectiveChoice::Player, PerspectiveChoice::Lid];
 
     pub fn perspective(self) -> Perspective {
         match self {
@@ -372,6 +380,8 @@ impl Default for StruckParams {
                     FloatRange::Skewed { min: 0.25, max: 4.0, factor: centred_skew(0.25, 4.0, 1.0) },
                 )
                 .with_value_to_string(formatters::v2s_f32_rounded(2)),
+                velocity_floor: IntParam::new("Softest velocity", 0, IntRange::Linear { min: 0, max: 126 }),
+                velocity_ceiling: IntParam::new("Loudest velocity", 127, IntRange::Linear { min: 1, max: 127 }),
             },
             hammer: HammerParams {
                 mass: scale_param("Hammer mass", 0.25, 4.0),
@@ -382,7 +392,14 @@ impl Default for StruckParams {
             },
             tangent: TangentParams {
                 depth: scale_param("Tangent depth", 0.5, 2.0),
-                bebung: percent_param("Bebung", 0.25),
+                bebung: FloatParam::new(
+                    "Bebung",
+                    20.0,
+                    FloatRange::Linear { min: 0.0, max: struck_engine::synth::MAX_BEBUNG_CENTS as f32 },
+                )
+                .with_unit(" cents")
+                .with_step_size(0.5)
+                .with_value_to_string(formatters::v2s_f32_rounded(1)),
                 fretted: BoolParam::new("Fretted", false),
             },
             strings: StringParams {
@@ -528,7 +545,9 @@ impl StruckParams {
             polyphony: self.output.polyphony.value().clamp(1, 128) as usize,
             output_gain: 10f64.powf(self.output.level_db.value() as f64 / 20.0),
             bend_range_semitones: self.output.bend_range.value() as f64,
-            bebung: self.tangent.bebung.value() as f64,
+            bebung_cents: self.tangent.bebung.value() as f64,
+            velocity_floor: self.touch.velocity_floor.value() as f64 / 127.0,
+            velocity_ceiling: self.touch.velocity_ceiling.value() as f64 / 127.0,
             output: self.output.source.value().output(),
             sympathy: self.resonance.sympathy.value() as f64,
             phantom: self.resonance.phantom.value() as f64,
@@ -599,12 +618,13 @@ mod tests {
         let p = StruckParams::default();
         let map = p.param_map();
         let ids: Vec<&str> = map.iter().map(|(id, _, _)| id.as_str()).collect();
-        let expected = ["inst", "tmin", "tmax", "tshp", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
-            .into_iter()
-            .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
-            .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
-            .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
-            .collect::<Vec<_>>();
+        let expected =
+            ["inst", "tmin", "tmax", "tshp", "vflo", "vfhi", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
+                .into_iter()
+                .chain(["tdep", "bebc", "fret", "a4", "temp", "root", "strt"])
+                .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
+                .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
+                .collect::<Vec<_>>();
         assert_eq!(ids, expected);
         let groups: Vec<&str> = map.iter().map(|(_, _, g)| g.as_str()).collect();
         let group_of = |id: &str| groups[ids.iter().position(|i| *i == id).unwrap()];

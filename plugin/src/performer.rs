@@ -2,8 +2,12 @@
 //! host's note and MIDI events to the engine's [`Event`]s at their sample
 //! positions, and back from keys that fall silent to the host's voice notices.
 
+use std::sync::Arc;
+
 use nice_plug::prelude::*;
 use struck_engine::synth::{BendRouter, Controls, Delivery, Event, PressureRouter, Synth, TimedEvent};
+
+use crate::keyboard::{KeyboardLink, PanelSeen};
 
 /// Engine events one `process` call gathers before rendering what it has so far
 /// (an incoming event becomes at most [`MAX_EVENTS_PER_HOST_EVENT`] of them).
@@ -38,6 +42,10 @@ pub struct Performer {
     /// gave the next note-on.
     velocity_low: [Option<u8>; 16],
     reset_pending: bool,
+    /// The panel's keyboard: keys it plays, and what it shows.
+    keyboard: Arc<KeyboardLink>,
+    /// What the performer last took of the panel's keys.
+    panel_seen: PanelSeen,
 }
 
 impl Performer {
@@ -53,7 +61,14 @@ impl Performer {
             voiced: [false; 128],
             velocity_low: [None; 16],
             reset_pending: false,
+            keyboard: Arc::new(KeyboardLink::default()),
+            panel_seen: PanelSeen::default(),
         }
+    }
+
+    /// Play the keys the panel's keyboard strikes, and show it what is held.
+    pub fn with_keyboard(self, keyboard: Arc<KeyboardLink>) -> Self {
+        Self { keyboard, ..self }
     }
 
     pub fn synth(&self) -> &Synth {
@@ -100,6 +115,8 @@ impl Performer {
             self.bends.reset();
             self.velocity_low = [None; 16];
         }
+        let events = &mut self.events;
+        self.keyboard.take_panel_events(&mut self.panel_seen, |e| events.push(e));
         let mut start = 0;
         let mut last = 0;
         while let Some(event) = port.next_event() {
@@ -120,6 +137,7 @@ impl Performer {
         for event in &mut self.events {
             event.time -= from as u32;
         }
+        self.keyboard.watch(&self.events);
         self.synth.process(&self.events, &mut left[from..to], &mut right[from..to]);
         self.events.clear();
         for ended in self.synth.ended_keys() {
@@ -382,12 +400,10 @@ mod tests {
     fn restore_burst(timing: u32) -> Vec<NoteEvent<()>> {
         (0..16u8)
             .flat_map(|channel| {
-                (0..128u8)
-                    .map(move |cc| NoteEvent::MidiCC { timing, channel, cc, value: 0.5 })
-                    .chain([
-                        NoteEvent::MidiChannelPressure { timing, channel, pressure: 0.5 },
-                        NoteEvent::MidiPitchBend { timing, channel, value: 0.5 },
-                    ])
+                (0..128u8).map(move |cc| NoteEvent::MidiCC { timing, channel, cc, value: 0.5 }).chain([
+                    NoteEvent::MidiChannelPressure { timing, channel, pressure: 0.5 },
+                    NoteEvent::MidiPitchBend { timing, channel, value: 0.5 },
+                ])
             })
             .collect()
     }
@@ -420,7 +436,10 @@ mod tests {
             };
             let (plain, restored) = (render(false), render(true));
             assert!(plain.iter().any(|s| s.abs() > 1e-4), "{kind:?} sounds");
-            assert!(plain.iter().zip(&restored).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind:?}: the burst changed the sound");
+            assert!(
+                plain.iter().zip(&restored).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{kind:?}: the burst changed the sound"
+            );
         }
         // A player's controllers still arrive: 64/127 is the sustain pedal half down.
         assert_eq!(translated(cc(0, 64, 64.0 / 127.0)), [Event::Sustain(64.0 / 127.0)]);
@@ -431,7 +450,8 @@ mod tests {
     fn a_high_resolution_velocity_prefix_refines_the_next_note_on_its_channel() {
         let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
         let (mut p, _workshop) = performer(&wanted);
-        let prefix = |channel, low: u8| NoteEvent::<()>::MidiCC { timing: 0, channel, cc: 88, value: f32::from(low) / 127.0 };
+        let prefix =
+            |channel, low: u8| NoteEvent::<()>::MidiCC { timing: 0, channel, cc: 88, value: f32::from(low) / 127.0 };
         p.translate(prefix(2, 100), 0);
         p.translate(note_on(0, 60, 64.0 / 127.0, 1, 3), 0);
         p.translate(note_on(0, 62, 64.0 / 127.0, 2, 2), 0);
@@ -495,7 +515,8 @@ mod tests {
             let (mut p, _workshop) = performer(&wanted);
             p.set_mpe(mpe);
             let mut port = Port::new();
-            let bend = NoteEvent::MidiPitchBend { timing: 0, channel: 1, value: (8192.0 + 8191.0 * 2.0 / 48.0) / 16383.0 };
+            let bend =
+                NoteEvent::MidiPitchBend { timing: 0, channel: 1, value: (8192.0 + 8191.0 * 2.0 / 48.0) / 16383.0 };
             port.load(&[note_on(0, 57, 0.7, 1, 1), note_on(0, 64, 0.7, 2, 2), bend]);
             let first = run(&mut p, &mut port, 1.0, 256);
             let tune = NoteEvent::PolyTuning {
@@ -754,5 +775,34 @@ mod tests {
             let v = nice_assert_no_alloc::assert_no_alloc(|| vec![1u8; 64]);
             std::hint::black_box(v);
         }
+    }
+
+    #[test]
+    fn the_panels_keys_and_pedals_play_and_show_without_allocating() {
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (p, _workshop) = performer(&wanted);
+        let link = Arc::new(KeyboardLink::default());
+        let mut p = p.with_keyboard(link.clone());
+        let mut port = Port::new();
+        let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
+        let mut block = |p: &mut Performer, port: &mut Port| {
+            port.load(&[]);
+            nice_assert_no_alloc::assert_no_alloc(|| p.process(Controls::default(), port, &mut l, &mut r));
+            l.iter().map(|v| v.abs()).fold(0.0f32, f32::max)
+        };
+        assert_eq!(block(&mut p, &mut port), 0.0);
+        link.press(69, 100);
+        link.set_pedal_from_panel(crate::keyboard::Pedal::Sustain, 1.0);
+        let loud = (0..20).map(|_| block(&mut p, &mut port)).fold(0.0f32, f32::max);
+        assert!(loud > 1e-3 && p.synth().key_sounding(69), "the panel's A4 played at {loud}");
+        assert!(link.is_down(69) && link.pedal(crate::keyboard::Pedal::Sustain) == 1.0);
+        // Let go with the pedal down: the key is up and still rings.
+        link.release(69);
+        block(&mut p, &mut port);
+        assert!(!link.is_down(69) && p.synth().key_sounding(69));
+        // A MIDI note shows as held too.
+        port.load(&[note_on(0, 40, 0.5, 1, 0)]);
+        p.process(Controls::default(), &mut port, &mut l, &mut r);
+        assert!(link.is_down(40));
     }
 }

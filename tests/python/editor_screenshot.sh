@@ -14,13 +14,17 @@
 # in colour count; at most 30 s), saves it with
 # `import -window root`, then stops struck (SIGTERM: it must exit within 5 s with status 0
 # or 143) and Xvfb.
+# Then plays it with no MIDI device (xdotool): holds the computer's key A
+# (C4), then clicks and holds a key of the panel's keyboard, a screenshot each
+# time (the first kept as OUT-played.png).
 # Checks: the window appears within $STRUCK_WINDOW_TIMEOUT s (default 60); the screenshot
 # has at least $STRUCK_MIN_COLOURS distinct colours (default 64; a black or empty screen
 # has 1, a flat window a handful; text and widgets give hundreds), and so does the window
-# alone. Exit status 0 on success, 1 with a last line "editor_screenshot: FAIL: <reason>".
+# alone; the key held lights up in the keyboard each time, and the string view
+# draws the struck string. Exit status 0 on success, 1 with a last line "editor_screenshot: FAIL: <reason>".
 #
 # Needs: Xvfb (xvfb), xwininfo and xdpyinfo (x11-utils), import/identify/convert
-# (imagemagick). xvfb pulls in Mesa's software OpenGL, which the egui editor uses.
+# (imagemagick), xdotool. xvfb pulls in Mesa's software OpenGL, which the egui editor uses.
 set -u
 
 me=editor_screenshot
@@ -76,8 +80,8 @@ cleanup() {
 trap cleanup EXIT
 trap 'failure="interrupted"; exit 1' INT TERM
 
-for tool in Xvfb xwininfo xdpyinfo import identify convert; do
-    command -v "$tool" >/dev/null || fail "$tool not found (Debian: xvfb, x11-utils, imagemagick)"
+for tool in Xvfb xwininfo xdpyinfo import identify convert xdotool; do
+    command -v "$tool" >/dev/null || fail "$tool not found (Debian: xvfb, x11-utils, imagemagick, xdotool)"
 done
 [ -x "$struck" ] || fail "$struck is not an executable"
 mkdir -p "$(dirname "$out")" || fail "cannot create $(dirname "$out")"
@@ -156,6 +160,45 @@ cp "$shot" "$out" || fail "cannot write $out"
 convert "$out" -crop "${win_w}x${win_h}+${win_x}+${win_y}" +repage "$window_out" ||
     fail "cannot crop the window to $window_out"
 
+# --- play it as a newcomer would, with no MIDI device: the computer's key A
+# (C4) held, then a click on the panel's keyboard held. Each time the key
+# lights up in the keyboard's held colour (235,150,70) and the string view
+# draws the string where it said "play a key".
+held_pixels() {
+    # Pixels of the held colour in the window's lowest 110 rows (the keyboard).
+    convert "$1" -crop "${win_w}x110+${win_x}+$((win_y + win_h - 110))" +repage \
+        -fill black +opaque 'rgb(235,150,70)' -fill white -opaque 'rgb(235,150,70)' \
+        -format '%[fx:round(mean*w*h)]' info: 2>/dev/null || echo 0
+}
+string_view_colours() {
+    convert "$1" -crop "600x150+$((win_x + 360))+$((win_y + 40))" +repage -format '%k' info: 2>/dev/null || echo 0
+}
+idle_held=$(held_pixels "$out")
+idle_string=$(string_view_colours "$out")
+played=
+if kill -0 "$struck_pid" 2>/dev/null; then
+    DISPLAY=$display xdotool windowfocus "$win_id" 2>/dev/null
+    DISPLAY=$display xdotool keydown --window "$win_id" a
+    sleep 1
+    DISPLAY=$display import -window root "$workdir/typed.png" 2>>"$workdir/import.log"
+    DISPLAY=$display xdotool keyup --window "$win_id" a
+    sleep 0.5
+    # A click near the front edge of a key right of the keyboard's middle (it
+    # ends some 18 pixels above the window's bottom).
+    DISPLAY=$display xdotool mousemove --window "$win_id" $((win_w - 160)) $((win_h - 30)) mousedown 1
+    sleep 1
+    DISPLAY=$display import -window root "$workdir/clicked.png" 2>>"$workdir/import.log"
+    DISPLAY=$display xdotool mouseup 1
+    played=1
+fi
+if [ -n "$played" ]; then
+    typed_held=$(held_pixels "$workdir/typed.png")
+    clicked_held=$(held_pixels "$workdir/clicked.png")
+    typed_string=$(string_view_colours "$workdir/typed.png")
+    cp "$workdir/typed.png" "${out%.png}-played.png" 2>/dev/null
+    say "held-colour pixels: idle $idle_held, key A down $typed_held, clicked $clicked_held; string view colours: idle $idle_string, played $typed_string"
+fi
+
 # --- stop struck: SIGTERM, it must be gone within 5 s
 alive_before_stop=0
 if kill -0 "$struck_pid" 2>/dev/null; then
@@ -188,4 +231,10 @@ say "screenshot $out: $total colours; window $window_out: $in_window colours, me
     fail "screenshot has only $total colours (< $min_colours): blank or unrendered editor"
 [ "$in_window" -ge "$min_colours" ] ||
     fail "editor window has only $in_window colours (< $min_colours): blank or unrendered"
+[ -n "$played" ] || fail "struck was gone before it could be played"
+[ "$idle_held" -lt 20 ] || fail "$idle_held pixels of held keys before any was played"
+[ "$typed_held" -ge 50 ] || fail "the computer's key A lit no key ($typed_held pixels)"
+[ "$clicked_held" -ge 50 ] || fail "a click on the panel's keyboard lit no key ($clicked_held pixels)"
+[ "$typed_string" -gt $((idle_string * 2)) ] ||
+    fail "the string view did not draw a string when C4 was played ($idle_string colours idle, $typed_string played)"
 say "PASS"

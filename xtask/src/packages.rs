@@ -77,8 +77,9 @@ pub const TEST: &[Need] = &[
             pkg("xvfb", Probe::Command("Xvfb")),
             pkg("x11-utils", Probe::Command("xwininfo")),
             pkg("imagemagick", Probe::Command("import")),
+            pkg("xdotool", Probe::Command("xdotool")),
         ],
-        why: "a virtual display, xwininfo and import, for the screenshot of the editor",
+        why: "a virtual display, xwininfo, import and xdotool, for the screenshot of the editor played from the computer's keys and the pointer",
         enough_if: None,
     },
     Need {
@@ -315,11 +316,11 @@ mod tests {
     #[test]
     fn a_python_that_makes_venvs_needs_no_packages() {
         let absent = missing(TEST, |_| false, |p| p == Probe::PythonVenv);
-        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "jackd2", "ardour"]);
+        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "xdotool", "jackd2", "ardour"]);
         let absent = missing(TEST, |_| false, |_| false);
         assert_eq!(
             missing_names(&absent),
-            ["xvfb", "x11-utils", "imagemagick", "jackd2", "ardour", "python3", "python3-venv"]
+            ["xvfb", "x11-utils", "imagemagick", "xdotool", "jackd2", "ardour", "python3", "python3-venv"]
         );
     }
 

@@ -39,6 +39,7 @@ use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
 
 pub use crate::CONTROL_BLOCK;
+pub use crate::key::MAX_BEBUNG_CENTS;
 
 /// The velocity (0..=1) each instrument's level scale is measured at: a key's
 /// ringing 50-300 ms after a note-on at this velocity is what the scale evens.
@@ -132,9 +133,16 @@ pub struct Controls {
     pub output_gain: f64,
     /// Pitch-wheel range, semitones.
     pub bend_range_semitones: f64,
-    /// Bebung: how much deeper full aftertouch presses a clavichord tangent, as a
-    /// fraction of its depth (the pitch rises with the square of the depth).
-    pub bebung: f64,
+    /// Bebung: how far full aftertouch raises a held clavichord note, cents.
+    /// The finger presses the tangent deeper (the depth follows the pressure)
+    /// and the pitch rises as the press stretches the string: with the square
+    /// of the depth, reaching this at full pressure.
+    pub bebung_cents: f64,
+    /// The player's softest and loudest velocity, 0..=1 (MIDI velocity / 127):
+    /// they play the instrument's softest and hardest touch (a velocity learn
+    /// sets them; 0 and 1 take velocities as they come).
+    pub velocity_floor: f64,
+    pub velocity_ceiling: f64,
     /// What is heard: the body through its microphones, or the bridge force.
     pub output: Output,
     /// How strongly the strings ring with each other through the body, 0..=1
@@ -160,7 +168,9 @@ impl Default for Controls {
             polyphony: 64,
             output_gain: 1.0,
             bend_range_semitones: 2.0,
-            bebung: 0.25,
+            bebung_cents: 20.0,
+            velocity_floor: 0.0,
+            velocity_ceiling: 1.0,
             output: Output::Microphones,
             sympathy: 1.0,
             phantom: 1.0,
@@ -178,13 +188,23 @@ impl Controls {
         ActionNoise { key_bed: level(self.key_noise), damper: level(self.damper_noise), pedal: level(self.pedal_noise) }
     }
 
-    /// The touch (exciter speed or pluck height) for a velocity in (0, 1].
+    /// A velocity (0..=1) within the player's range, as 0..=1 of it: the
+    /// floor or under is 0, the ceiling or over 1. A range of no width (or an
+    /// upside-down one) takes velocities as they come.
+    pub fn played_velocity(&self, velocity: f64) -> f64 {
+        let (floor, ceiling) = (self.velocity_floor.clamp(0.0, 1.0), self.velocity_ceiling.clamp(0.0, 1.0));
+        let v = velocity.clamp(0.0, 1.0);
+        if ceiling > floor { ((v - floor) / (ceiling - floor)).clamp(0.0, 1.0) } else { v }
+    }
+
+    /// The touch (exciter speed or pluck height) for a velocity in (0, 1],
+    /// through the player's range and the curve.
     pub fn touch(&self, range: TouchRange, velocity: f64) -> Touch {
         let (min, max) = range.bounds();
         let span = (max / min).ln();
         let lo = self.touch_min.clamp(0.0, 1.0);
         let hi = self.touch_max.clamp(0.0, 1.0);
-        let v = velocity.clamp(0.0, 1.0).powf(self.touch_shape.clamp(0.1, 10.0));
+        let v = self.played_velocity(velocity).powf(self.touch_shape.clamp(0.1, 10.0));
         range.with(min * (span * (lo + (hi - lo) * v)).exp())
     }
 }
@@ -694,7 +714,7 @@ impl Synth {
         let touch = self.controls.touch(self.current.touch, velocity);
         // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
         let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
-        let (una_corda, bend, bebung, noise) = (self.una_corda, self.bend, self.controls.bebung, self.controls.noise());
+        let (una_corda, bend, bebung, noise) = (self.una_corda, self.bend, self.controls.bebung_cents, self.controls.noise());
         let Some((key, note)) = self.current.route(midi_key) else { return };
         key.set_bebung(bebung);
         key.set_noise(noise);
@@ -732,7 +752,7 @@ impl Synth {
 
     fn control(&mut self, time: u32) {
         let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
-        let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung);
+        let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung_cents);
         let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());
         if let Some(phase) = self.lifting {
             for (k, key) in self.current.keys.iter_mut().enumerate() {

@@ -228,7 +228,9 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.output.source, crate::params::OutputChoice::of(c.output));
     set(setter, &params.output.perspective, crate::params::PerspectiveChoice::of(preset.mics.perspective));
     set(setter, &params.output.width, preset.mics.width as f32);
-    set(setter, &params.tangent.bebung, c.bebung as f32);
+    set(setter, &params.tangent.bebung, c.bebung_cents as f32);
+    set(setter, &params.touch.velocity_floor, (c.velocity_floor * 127.0).round() as i32);
+    set(setter, &params.touch.velocity_ceiling, (c.velocity_ceiling * 127.0).round() as i32);
     set(setter, &params.resonance.sympathy, c.sympathy as f32);
     set(setter, &params.resonance.phantom, c.phantom as f32);
     set(setter, &params.action.key_noise, c.key_noise as f32);
@@ -312,7 +314,11 @@ mod tests {
             assert!(close(v.felt_hysteresis, w.felt_hysteresis), "{what}: {v:?}");
             assert!(close(v.board_irregularity, w.board_irregularity) && close(v.board_size, w.board_size), "{what}");
             let (c, d) = (&saved.controls, &preset.controls);
-            assert!(close(c.bebung, d.bebung), "{what}");
+            assert!(close(c.bebung_cents, d.bebung_cents), "{what}");
+            assert!(
+                close(c.velocity_floor, d.velocity_floor) && close(c.velocity_ceiling, d.velocity_ceiling),
+                "{what}"
+            );
             assert!(close(c.sympathy, d.sympathy) && close(c.phantom, d.phantom), "{what}: {c:?}");
             assert!(close(c.key_noise, d.key_noise) && close(c.damper_noise, d.damper_noise), "{what}: {c:?}");
             assert!(close(c.pedal_noise, d.pedal_noise), "{what}: {c:?}");

@@ -8,6 +8,7 @@
 //! scope's lock-free queues and never sees the lock). It repaints about 30
 //! times a second while open.
 
+mod keys;
 mod library;
 pub mod views;
 
@@ -24,20 +25,23 @@ use nice_plug_egui::{
     EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier, baseview, create_egui_editor,
 };
 use struck_engine::design::InstrumentKind;
-use struck_engine::synth::Scope;
 use struck_engine::design::TouchRange;
+use struck_engine::synth::Scope;
 
+use crate::keyboard::KeyboardLink;
 use crate::params::{InstrumentChoice, OutputChoice, PerspectiveChoice, StruckParams, TemperamentChoice};
 use crate::standalone;
 use views::LiveView;
 
 /// The window's size, logical pixels.
 pub const WIDTH: f64 = 1000.0;
-pub const HEIGHT: f64 = 660.0;
+pub const HEIGHT: f64 = 760.0;
 const PARAMS_WIDTH: f32 = 340.0;
 /// Time between repaints while the panel is open.
 const REPAINT: Duration = Duration::from_millis(33);
 const IDLE_REPAINT: Duration = Duration::from_millis(250);
+/// The panel's keyboard's height, logical pixels.
+const KEYBOARD_HEIGHT: f32 = 72.0;
 
 /// The live view's source: the scope reader of the synth now playing, with its rate.
 pub struct ScopeFeed {
@@ -58,12 +62,13 @@ pub fn create(
     scope: SharedScope,
     state: Arc<EguiEditorState>,
     building: Arc<AtomicBool>,
+    keyboard: Arc<KeyboardLink>,
 ) -> Option<EguiEditor<StruckEditor>> {
     create_egui_editor(
         state,
         RepaintNotifier::new(),
         EguiNiceSettings::new().with_tile("Struck"),
-        StruckEditor::new(params, scope).telling_builds(building),
+        StruckEditor::new(params, scope).telling_builds(building).playing(keyboard),
     )
 }
 
@@ -77,6 +82,7 @@ pub struct StruckEditor {
     library: library::Library,
     /// True while the instrument is being rebuilt for new settings.
     building: Arc<AtomicBool>,
+    keys: keys::PanelKeyboard,
 }
 
 impl StruckEditor {
@@ -89,7 +95,13 @@ impl StruckEditor {
             sample_rate_hz: 48_000.0,
             building: Arc::new(AtomicBool::new(false)),
             library: library::Library::new(),
+            keys: keys::PanelKeyboard::new(Arc::new(KeyboardLink::default())),
         }
+    }
+
+    /// Play the plugin's keys from the panel's keyboard (and show what `keyboard` sees held).
+    pub fn playing(self, keyboard: Arc<KeyboardLink>) -> Self {
+        Self { keys: keys::PanelKeyboard::new(keyboard), ..self }
     }
 
     /// Say in the panel while the instrument is rebuilt (`building` true).
@@ -116,7 +128,7 @@ impl StruckEditor {
                 Some(gui) => {
                     let setter = gui.param_setter();
                     self.library.presets(ui, &params, &setter);
-                    parameter_groups(ui, &params, &setter);
+                    parameter_groups(ui, &params, &setter, self.keys.link());
                     self.library.tuning(ui, &params, &setter);
                     output_group(ui, &params, &setter);
                 }
@@ -126,6 +138,9 @@ impl StruckEditor {
             });
         });
         egui::CentralPanel::default().show(ui, |ui| self.physics(ui));
+        if standalone::is_standalone() && !ui.ctx().egui_wants_keyboard_input() {
+            self.keys.type_keys(ui);
+        }
     }
 
     fn physics(&mut self, ui: &mut Ui) {
@@ -142,9 +157,11 @@ impl StruckEditor {
         ui.add_space(6.0);
         views::contact_view(ui, frame.as_ref(), Vec2::new(width, 150.0));
         ui.add_space(6.0);
-        let height = (ui.available_height() - 4.0).max(120.0);
+        let height = (ui.available_height() - KEYBOARD_HEIGHT - 40.0).max(120.0);
         let fs = self.sample_rate_hz;
         views::spectrum_view(ui, self.live.spectrum_db(), fs, Vec2::new(width, height));
+        ui.add_space(4.0);
+        self.keys.show(ui, self.params.kind(), Vec2::new(width, KEYBOARD_HEIGHT));
     }
 }
 
@@ -166,7 +183,7 @@ pub(crate) fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &Par
     });
 }
 
-fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
+fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter, keyboard: &KeyboardLink) {
     group(ui, "Instrument", |ui| {
         choice_row(ui, setter, &params.instrument.kind, InstrumentChoice::ALL, |c| c.kind().name());
     });
@@ -174,6 +191,9 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         slider(ui, "Softest", &params.touch.min, setter);
         slider(ui, "Hardest", &params.touch.max, setter);
         slider(ui, "Curve", &params.touch.shape, setter);
+        slider(ui, "Your softest", &params.touch.velocity_floor, setter);
+        slider(ui, "Your loudest", &params.touch.velocity_ceiling, setter);
+        velocity_learn(ui, params, setter, keyboard);
         let kind = params.kind();
         let what = match kind.touch_range() {
             TouchRange::Speed { .. } => "exciter speed, m/s",
@@ -188,13 +208,17 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
         InstrumentKind::Harpsichord => group(ui, "Plectrum", |ui| {
             slider(ui, "Pluck position", &params.hammer.position, setter);
         }),
-        kind => group(ui, if matches!(kind, InstrumentKind::Piano | InstrumentKind::Fortepiano) { "Hammer" } else { "Mallets" }, |ui| {
-            slider(ui, "Mass", &params.hammer.mass, setter);
-            slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
-            slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
-            slider(ui, "Strike position", &params.hammer.position, setter);
-            slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
-        }),
+        kind => group(
+            ui,
+            if matches!(kind, InstrumentKind::Piano | InstrumentKind::Fortepiano) { "Hammer" } else { "Mallets" },
+            |ui| {
+                slider(ui, "Mass", &params.hammer.mass, setter);
+                slider(ui, "Felt stiffness K", &params.hammer.stiffness, setter);
+                slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
+                slider(ui, "Strike position", &params.hammer.position, setter);
+                slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
+            },
+        ),
     }
     group(ui, "Strings", |ui| {
         slider(ui, "Damping", &params.strings.damping, setter);
@@ -205,9 +229,44 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
             slider(ui, "Depth", &params.tangent.depth, setter);
             slider(ui, "Bebung", &params.tangent.bebung, setter);
             toggle(ui, "Fretted", "keys share strings", &params.tangent.fretted, setter);
-            ui.label(RichText::new("aftertouch presses deeper: the pitch follows the finger").small());
+            ui.label(RichText::new("full aftertouch presses the tangent deeper and raises the note this far").small());
         });
     }
+}
+
+/// The velocity learn: play your softest and loudest notes, and they become
+/// the softest and hardest touch.
+fn velocity_learn(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter, keyboard: &KeyboardLink) {
+    ui.horizontal(|ui| {
+        if keyboard.is_learning() {
+            let heard = match keyboard.learnt() {
+                Some((soft, loud)) => format!("softest {:.0}, loudest {:.0}", soft * 127.0, loud * 127.0),
+                None => "nothing yet".to_string(),
+            };
+            ui.label(RichText::new(format!("play your softest and loudest notes: {heard}")).small());
+            if ui.button("Done").clicked() {
+                apply_learnt(keyboard.stop_learning(), params, setter);
+            }
+        } else {
+            if ui.button("Learn velocity").on_hover_text("play your softest and loudest notes, then Done").clicked() {
+                keyboard.start_learning();
+            }
+            if ui.button("Reset").clicked() {
+                set(setter, &params.touch.velocity_floor, 0);
+                set(setter, &params.touch.velocity_ceiling, 127);
+            }
+        }
+    });
+}
+
+/// Set the player's velocity range to what a learn heard (a range of at least
+/// two steps; nothing heard changes nothing).
+fn apply_learnt(learnt: Option<(f32, f32)>, params: &StruckParams, setter: &ParamSetter) {
+    let Some((soft, loud)) = learnt else { return };
+    let floor = ((soft * 127.0).round() as i32).clamp(0, 125);
+    let ceiling = ((loud * 127.0).round() as i32).clamp(floor + 2, 127);
+    set(setter, &params.touch.velocity_floor, floor);
+    set(setter, &params.touch.velocity_ceiling, ceiling);
 }
 
 /// A labelled checkbox for an on/off parameter, `what` saying what on means.
@@ -316,10 +375,11 @@ mod tests {
 
     use super::*;
 
-    /// A host that counts parameter changes.
+    /// A host that counts parameter changes (and makes them, when `applies`).
     #[derive(Default)]
     struct Host {
         changes: AtomicUsize,
+        applies: bool,
     }
 
     impl GuiContextInner for Host {
@@ -327,8 +387,12 @@ mod tests {
             PluginApi::Standalone
         }
         unsafe fn raw_begin_set_parameter(&self, _param: ParamPtr) {}
-        unsafe fn raw_set_parameter_normalized(&self, _param: ParamPtr, _normalized: f32) {
+        unsafe fn raw_set_parameter_normalized(&self, param: ParamPtr, normalized: f32) {
             self.changes.fetch_add(1, Ordering::Relaxed);
+            if self.applies {
+                // SAFETY: the parameter outlives the test's panel, which sets it from this thread.
+                unsafe { param._internal_set_normalized_value(normalized) };
+            }
         }
         unsafe fn raw_end_set_parameter(&self, _param: ParamPtr) {}
         fn get_state(&self) -> PluginState {
@@ -339,11 +403,130 @@ mod tests {
     }
 
     fn frame(ctx: &egui::Context, editor: &mut StruckEditor) -> egui::FullOutput {
+        frame_with(ctx, editor, Vec::new())
+    }
+
+    fn frame_with(ctx: &egui::Context, editor: &mut StruckEditor, events: Vec<egui::Event>) -> egui::FullOutput {
         let input = egui::RawInput {
             screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(WIDTH as f32, HEIGHT as f32))),
+            events,
             ..Default::default()
         };
-        ctx.run_ui(input, |ui| editor.draw(ui))
+        let mut out = ctx.run_ui(input, |ui| editor.draw(ui));
+        out.textures_delta.clear();
+        out
+    }
+
+    fn pointer(at: egui::Pos2, pressed: bool) -> Vec<egui::Event> {
+        vec![
+            egui::Event::PointerMoved(at),
+            egui::Event::PointerButton {
+                pos: at,
+                button: egui::PointerButton::Primary,
+                pressed,
+                modifiers: egui::Modifiers::NONE,
+            },
+        ]
+    }
+
+    #[test]
+    fn the_panels_keyboard_plays_keys_louder_nearer_the_front_and_shows_what_is_held() {
+        let params = Arc::new(StruckParams::default());
+        let link = Arc::new(KeyboardLink::default());
+        let mut editor = StruckEditor::new(params, Arc::new(Mutex::new(None))).playing(link.clone());
+        editor.set_gui_context(GuiContext::new(Arc::new(Host::default())));
+        let ctx = egui::Context::default();
+        frame(&ctx, &mut editor);
+        // The keyboard spans the central panel's width at the bottom of the window:
+        // the piano's 52 white keys; C4 is the 24th (A0 B0 C1 ...).
+        let drawn = editor.keys.drawn;
+        assert!(drawn.width() > 500.0 && drawn.bottom() > HEIGHT as f32 - 30.0, "{drawn:?}");
+        let bottom = drawn.bottom() - 2.0;
+        let white = drawn.width() / 52.0;
+        let c4 = egui::pos2(drawn.left() + 23.5 * white, bottom);
+        let mut seen = crate::keyboard::PanelSeen::default();
+        let mut taken = || {
+            let mut out = Vec::new();
+            link.take_panel_events(&mut seen, |e| out.push(e.event));
+            out
+        };
+        frame_with(&ctx, &mut editor, pointer(c4, true));
+        frame(&ctx, &mut editor);
+        let struck = taken();
+        let [struck_engine::synth::Event::NoteOn { key: 60, velocity }] = struck[..] else {
+            panic!("a click on C4's front edge played {struck:?}");
+        };
+        assert!(velocity > 0.9, "near the front edge: {velocity}");
+        frame_with(&ctx, &mut editor, pointer(c4, false));
+        assert_eq!(taken(), [struck_engine::synth::Event::NoteOff { key: 60, velocity: 0.5 }]);
+        // Nearer the back of the key: softer.
+        let back = egui::pos2(c4.x, bottom - 0.6 * KEYBOARD_HEIGHT);
+        frame_with(&ctx, &mut editor, pointer(back, true));
+        let [struck_engine::synth::Event::NoteOn { key: 60, velocity: softer }] = taken()[..] else { panic!() };
+        assert!(softer < 0.6 * velocity, "{softer} against {velocity}");
+        frame_with(&ctx, &mut editor, pointer(back, false));
+        taken();
+        // Held keys and pedals light up, whoever holds them.
+        let held_colour = |editor: &mut StruckEditor| {
+            let out = frame(&ctx, editor);
+            out.shapes.iter().any(|c| matches!(&c.shape, egui::Shape::Rect(r) if r.fill == keys::HELD_FOR_TESTS))
+        };
+        assert!(!held_colour(&mut editor));
+        link.watch(&[struck_engine::synth::TimedEvent::new(
+            0,
+            struck_engine::synth::Event::NoteOn { key: 64, velocity: 0.5 },
+        )]);
+        assert!(held_colour(&mut editor));
+        assert!(link.is_down(64));
+    }
+
+    #[test]
+    fn the_computers_keys_play_from_the_home_row() {
+        let link = Arc::new(KeyboardLink::default());
+        let mut keyboard = keys::PanelKeyboard::new(link.clone());
+        let ctx = egui::Context::default();
+        let mut typed = |events: Vec<(egui::Key, bool)>| {
+            let events = events
+                .into_iter()
+                .map(|(key, pressed)| egui::Event::Key {
+                    key,
+                    physical_key: None,
+                    pressed,
+                    repeat: false,
+                    modifiers: egui::Modifiers::NONE,
+                })
+                .collect();
+            let _ = ctx.run_ui(egui::RawInput { events, ..Default::default() }, |ui| keyboard.type_keys(ui));
+        };
+        // A is C4, W C#4, K C5; X an octave up; space the sustain.
+        typed(vec![(egui::Key::A, true), (egui::Key::W, true), (egui::Key::Space, true)]);
+        assert!(link.panel_holds(60) && link.panel_holds(61));
+        assert_eq!(link.panel_pedal(crate::keyboard::Pedal::Sustain), 1.0);
+        typed(vec![(egui::Key::A, false), (egui::Key::X, true), (egui::Key::K, true), (egui::Key::Space, false)]);
+        assert!(!link.panel_holds(60) && link.panel_holds(61) && link.panel_holds(84));
+        assert_eq!(link.panel_pedal(crate::keyboard::Pedal::Sustain), 0.0);
+    }
+
+    #[test]
+    fn a_velocity_learn_sets_the_players_range() {
+        let params = Arc::new(StruckParams::default());
+        let link = KeyboardLink::default();
+        let host = Arc::new(Host { applies: true, ..Host::default() });
+        link.start_learning();
+        let at = |velocity| {
+            struck_engine::synth::TimedEvent::new(0, struck_engine::synth::Event::NoteOn { key: 60, velocity })
+        };
+        link.watch(&[at(30.0 / 127.0), at(105.0 / 127.0), at(70.0 / 127.0)]);
+        let gui = GuiContext::new(host);
+        apply_learnt(link.stop_learning(), &params, &gui.param_setter());
+        assert_eq!((params.touch.velocity_floor.value(), params.touch.velocity_ceiling.value()), (30, 105));
+        let c = params.controls();
+        assert_eq!(c.played_velocity(105.0 / 127.0), 1.0);
+        assert_eq!(c.played_velocity(30.0 / 127.0), 0.0);
+        // Nothing heard: nothing changes.
+        link.start_learning();
+        apply_learnt(link.stop_learning(), &params, &gui.param_setter());
+        assert_eq!(params.touch.velocity_ceiling.value(), 105);
     }
 
     /// Whether a frame drew `text` anywhere.
@@ -408,7 +591,10 @@ mod tests {
     fn the_panel_draws_headless_from_a_live_scope() {
         let params = Arc::new(StruckParams::default());
         let shared: SharedScope = Arc::new(Mutex::new(None));
-        assert!(create(params.clone(), shared.clone(), default_state(), Arc::new(AtomicBool::new(false))).is_some());
+        let link = Arc::new(KeyboardLink::default());
+        assert!(
+            create(params.clone(), shared.clone(), default_state(), Arc::new(AtomicBool::new(false)), link).is_some()
+        );
 
         let fs = 48_000.0;
         let instrument = Instrument::build(&default_settings(InstrumentKind::Santoor, fs)).unwrap();

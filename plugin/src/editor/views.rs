@@ -151,7 +151,13 @@ pub fn format_length(metres: f64) -> String {
 pub fn string_view(ui: &mut Ui, frame: Option<&ScopeFrame>, size: Vec2) {
     let (painter, rect) = plot_area(ui, size);
     let Some(frame) = frame else {
-        painter.text(rect.center(), Align2::CENTER_CENTER, "strike a key to see its string", small(), AXIS_TEXT);
+        painter.text(
+            rect.center(),
+            Align2::CENTER_CENTER,
+            "play a key (the keyboard below, or MIDI) to see its string",
+            small(),
+            AXIS_TEXT,
+        );
         return;
     };
     let hammer = frame.hammer;
@@ -329,7 +335,8 @@ pub fn touch_curve(ui: &mut Ui, controls: &Controls, kind: InstrumentKind, size:
     };
     painter.line_segment([plot.left_bottom(), plot.right_bottom()], Stroke::new(1.0, GRID));
     painter.line_segment([plot.left_bottom(), plot.left_top()], Stroke::new(1.0, GRID));
-    let points: Vec<Pos2> = (1..=127).map(|v| to_screen(v as f64, controls.touch(range, v as f64 / 127.0).value())).collect();
+    let points: Vec<Pos2> =
+        (1..=127).map(|v| to_screen(v as f64, controls.touch(range, v as f64 / 127.0).value())).collect();
     painter.add(Shape::line(points, Stroke::new(1.5, CURVE_COLOUR)));
     let unit = range.max().unit();
     let soft = controls.touch(range, 1.0 / 127.0).value();

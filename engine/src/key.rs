@@ -55,6 +55,9 @@ pub(crate) const MAX_NOTES: usize = 32;
 /// Time constant smoothing the finger's pressure on a tangent (aftertouch), s: a
 /// player's Bebung is a few hertz at most, MIDI pressure comes in steps.
 const PRESSURE_SMOOTHING_S: f64 = 0.015;
+/// Where a key's own strike position may move the hammer, fractions of the string.
+const MIN_STRIKE_POINT: f64 = 0.02;
+const MAX_STRIKE_POINT: f64 = 0.5;
 /// The deepest Bebung, cents at full pressure.
 pub const MAX_BEBUNG_CENTS: f64 = 100.0;
 /// The strings are retuned when their pitch has moved by more than this ratio
@@ -276,6 +279,10 @@ pub(crate) struct Key {
     volume: f64,
     volume_to: f64,
     volume_step: f64,
+    /// Its own hammer over the voicing: felt stiffness and strike position
+    /// factors ([`Self::set_hammer`]).
+    hammer_hardness: f64,
+    hammer_position: f64,
     /// How far full pressure raises a tangent's pitch, cents, and the
     /// tension's factor that makes it (the pitch's squared).
     bebung_cents: f64,
@@ -448,6 +455,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             volume: 1.0,
             volume_to: 1.0,
             volume_step: 0.0,
+            hammer_hardness: 1.0,
+            hammer_position: 1.0,
             bebung_cents: 0.0,
             bebung: 1.0,
             pitch_set: 1.0,
@@ -745,6 +754,15 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
     }
 
+    /// Its own hammer (or mallets) over the voicing, for its next strikes:
+    /// felt stiffness and strike position as factors, 1 as voiced (held to
+    /// 1/16 to 16 times). Allocates: no (a strike at a new point rebuilds the
+    /// string's hammer tables in place).
+    pub fn set_hammer(&mut self, hardness: f64, position: f64) {
+        self.hammer_hardness = if hardness > 0.0 { hardness.clamp(1.0 / 16.0, 16.0) } else { 1.0 };
+        self.hammer_position = if position > 0.0 { position.clamp(1.0 / 16.0, 16.0) } else { 1.0 };
+    }
+
     /// How far full pressure raises a held tangent's pitch, cents (Bebung).
     pub fn set_bebung(&mut self, cents: f64) {
         if cents != self.bebung_cents {
@@ -848,6 +866,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 // rest with its less worn, softer felt. Each string takes the
                 // hammer's mass and felt in proportion to the width it meets.
                 let shift = if strings.len() >= 2 { una_corda.clamp(0.0, 1.0) } else { 0.0 };
+                let hardness = hardness * self.hammer_hardness;
+                let position = if self.hammer_position == 1.0 {
+                    position
+                } else {
+                    (position * self.hammer_position).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT)
+                };
                 let soft = 1.0 - una_corda.clamp(0.0, 1.0) * (1.0 - UNA_CORDA_STIFFNESS);
                 let width = strings.len() as f64 - shift;
                 let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
@@ -1315,6 +1339,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.pressure = old.pressure;
         self.pressure_now = old.pressure_now;
         (self.bebung_cents, self.bebung) = (old.bebung_cents, old.bebung);
+        (self.hammer_hardness, self.hammer_position) = (old.hammer_hardness, old.hammer_position);
         self.tune = old.tune;
         (self.volume, self.volume_to, self.volume_step) = (old.volume, old.volume_to, old.volume_step);
         if self.bridge_force_n.len() == old.bridge_force_n.len() {

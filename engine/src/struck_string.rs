@@ -148,8 +148,8 @@ impl StruckString {
     }
 
     /// Throw a hammer at the string as it is now, sub-stepped as finely as the
-    /// string has tables for. Allocates only when the hammer tables were not
-    /// prepared for `spec.position`.
+    /// string has tables for. Allocates only when the string has no hammer
+    /// tables yet (a new strike point rebuilds them in place).
     pub fn strike(&mut self, spec: HammerSpec) {
         self.strike_substepped(spec, usize::MAX);
     }
@@ -160,7 +160,10 @@ impl StruckString {
         self.release_exciter();
         let fine = self.fine.iter().position(|f| f.substeps >= substeps).unwrap_or(self.fine.len() - 1);
         let mut rig = match std::mem::replace(&mut self.exciter, Exciter::None) {
-            Exciter::Hammer(rig) if rig.position() == spec.position => rig,
+            Exciter::Hammer(mut rig) => {
+                rig.move_to(&self.string, &self.bank, &self.audio, &self.fine, spec.position);
+                rig
+            }
             _ => HammerRig::new(&self.string, &self.bank, &self.audio, &self.fine, spec.position),
         };
         rig.throw(&self.bank, spec, fine, self.fine[fine].step.step_s, self.audio.step_s);

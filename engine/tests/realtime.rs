@@ -165,12 +165,18 @@ fn random_event(rng: &mut Rng) -> Event {
         5..=7 => Event::NoteOff { key, velocity: level(rng) },
         8 => Event::Sustain(level(rng)),
         9 => Event::PitchBend([-1.0, 1.0, 2.0 * rng.unit_f32() - 1.0][rng.below(3) as usize]),
-        _ => match rng.below(6) {
+        _ => match rng.below(9) {
             0 => Event::Sostenuto(level(rng)),
             1 => Event::UnaCorda(level(rng)),
             2 => Event::ModWheel(level(rng)),
             3 => Event::Pressure { key, pressure: level(rng) },
             4 => Event::AllNotesOff,
+            5 => {
+                let factor = |rng: &mut Rng| [1.0 / 16.0, 16.0, 0.25 + 3.75 * rng.unit_f32()][rng.below(3) as usize];
+                Event::KeyHammer { key, hardness: factor(rng), position: factor(rng) }
+            }
+            6 => Event::KeyVolume { key, gain: 2.0 * level(rng) },
+            7 => Event::KeyBend { key, semitones: 48.0 * (2.0 * rng.unit_f32() - 1.0) },
             _ => Event::Reset,
         },
     }

@@ -108,6 +108,7 @@ fn session() -> Vec<(f64, Event)> {
         (0.2, Event::PitchBend(0.3)),
         (0.2003, Event::KeyVolume { key: 64, gain: 0.4 }),
         (0.2051, Event::KeyBend { key: 64, semitones: 0.7 }),
+        (0.209, Event::KeyHammer { key: 60, hardness: 1.5, position: 0.7 }),
         (0.21, Event::NoteOn { key: 60, velocity: 1.0 }),
         (0.25, Event::NoteOff { key: 64, velocity: 0.5 }),
         (0.3, Event::Sustain(0.4)),
@@ -127,6 +128,72 @@ fn any_block_size_gives_the_same_samples() {
         let out = render(&mut synth(InstrumentKind::Piano), 0.5, &session(), block);
         assert!(out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits()), "block {block} differs");
     }
+}
+
+/// Partial `n`'s level in dB over 0.05-0.55 s of `out`: the strongest bin of
+/// a Hann-windowed spectrum within 2 % of n times `f_hz` (a stiff string's
+/// partials run sharp; C3's 14th by well under 2 %).
+fn partial_db(out: &[f32], f_hz: f64, n: usize) -> f64 {
+    let x = window(out, 0.05, 0.55);
+    let len = x.len();
+    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(len);
+    let mut input: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(k, v)| (0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / len as f64).cos()) * *v as f64)
+        .collect();
+    let mut spectrum = fft.make_output_vec();
+    fft.process(&mut input, &mut spectrum).unwrap();
+    let bin = FS / len as f64;
+    let target = n as f64 * f_hz;
+    let (lo, hi) = ((target * 0.995 / bin) as usize, (target * 1.02 / bin) as usize);
+    20.0 * spectrum[lo..=hi].iter().map(|c| c.norm()).fold(1e-30, f64::max).log10()
+}
+
+#[test]
+fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
+    // C3 on the bridge force: a key's own hardness brightens its next strike;
+    // its own strike point at a quarter of the string takes out the 4th
+    // partial (a node there), and at an eighth the 8th. Other keys are not moved.
+    let key = 48;
+    let f = struck_engine::design::key_frequency_hz(key);
+    let position = |voicing: Voicing| struck_engine::design::key_design(InstrumentKind::Piano, &voicing, key, 20_000.0)
+        .and_then(|d| match d.exciter {
+            struck_engine::design::ExciterDesign::Hammer { position, .. } => Some(position),
+            _ => None,
+        })
+        .unwrap();
+    let built = position(Voicing::default());
+    let strike = |hammer: Option<(f32, f32)>| {
+        let mut s = synth(InstrumentKind::Piano);
+        let mut events = vec![];
+        if let Some((hardness, position)) = hammer {
+            events.push((0.0, Event::KeyHammer { key, hardness, position }));
+        }
+        events.push((0.0, Event::NoteOn { key, velocity: 0.7 }));
+        render(&mut s, 0.6, &events, 256)
+    };
+    let plain = strike(None);
+    let brightness = |out: &[f32]| (9..=14).map(|n| partial_db(out, f, n)).sum::<f64>() / 6.0 - partial_db(out, f, 1);
+    let (hard, soft) = (strike(Some((4.0, 1.0))), strike(Some((0.25, 1.0))));
+    let (b_plain, b_hard, b_soft) = (brightness(&plain), brightness(&hard), brightness(&soft));
+    println!("C3: partials 9-14 re the 1st: {b_soft:.1} dB (felt 1/4), {b_plain:.1} (as voiced), {b_hard:.1} (4x)");
+    assert!(b_hard > b_plain + 3.0 && b_soft < b_plain - 3.0);
+    for n in [4usize, 8] {
+        let moved = strike(Some((1.0, (1.0 / (n as f64 * built)) as f32)));
+        let (before, after) = (partial_db(&plain, f, n) - partial_db(&plain, f, 1), partial_db(&moved, f, n) - partial_db(&moved, f, 1));
+        println!("C3 struck at 1/{n} (built at {built:.4}): partial {n} re the 1st {before:.1} -> {after:.1} dB");
+        assert!(after < before - 15.0, "partial {n}: {before:.1} -> {after:.1} dB");
+    }
+    // Back to 1: as voiced, bit for bit.
+    let mut s = synth(InstrumentKind::Piano);
+    let events = [
+        (0.0, Event::KeyHammer { key, hardness: 2.0, position: 0.5 }),
+        (0.0, Event::KeyHammer { key, hardness: 1.0, position: 1.0 }),
+        (0.0, Event::NoteOn { key, velocity: 0.7 }),
+    ];
+    let back = render(&mut s, 0.6, &events, 256);
+    assert!(back.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
 #[test]

@@ -150,7 +150,9 @@ impl Plugin for StruckPlugin {
                 move || Some(params.settings(sample_rate_hz)),
                 self.building.clone(),
             );
-            self.performer = Some(Performer::new(synth, delivery).with_keyboard(self.keyboard.clone()));
+            self.performer = Some(
+                Performer::new(synth, delivery).with_keyboard(self.keyboard.clone()).with_params(self.params.clone()),
+            );
             self.workshop = Some(workshop);
             *self.scope.lock().unwrap_or_else(|e| e.into_inner()) = Some(ScopeFeed { scope, sample_rate_hz });
             self.sample_rate_hz = sample_rate_hz;

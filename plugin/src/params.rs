@@ -104,6 +104,10 @@ impl TemperamentChoice {
     }
 }
 
+/// The polyphonic modulation ids of the hammer's felt stiffness and strike position.
+pub const POLY_HARDNESS: u32 = 1;
+pub const POLY_POSITION: u32 = 2;
+
 /// Version of the saved state's layout, kept with the state for future migrations.
 pub const STATE_VERSION: u32 = 1;
 
@@ -385,9 +389,9 @@ impl Default for StruckParams {
             },
             hammer: HammerParams {
                 mass: scale_param("Hammer mass", 0.25, 4.0),
-                stiffness: scale_param("Felt stiffness K", 0.25, 4.0),
+                stiffness: scale_param("Felt stiffness K", 0.25, 4.0).with_poly_modulation_id(POLY_HARDNESS),
                 exponent: scale_param("Felt exponent alpha", 0.5, 2.0),
-                position: scale_param("Strike position", 0.25, 4.0),
+                position: scale_param("Strike position", 0.25, 4.0).with_poly_modulation_id(POLY_POSITION),
                 hysteresis: level_param("Felt hysteresis", 3.0),
             },
             tangent: TangentParams {
@@ -528,6 +532,19 @@ impl StruckParams {
             stretch: self.tuning.stretch.value() as f64,
             scale,
         }
+    }
+
+    /// A voice's hardness and strike position factors for its polyphonic
+    /// modulation of the felt stiffness and strike position (normalized
+    /// offsets): each the parameter's value there over its value now. Reads
+    /// atomics only: real-time safe.
+    pub fn hammer_modulation(&self, (hardness, position): (f32, f32)) -> (f32, f32) {
+        let factor = |param: &FloatParam, offset: f32| {
+            let base = param.modulated_normalized_value();
+            let now = param.preview_plain(base);
+            if now > 0.0 { param.preview_plain((base + offset).clamp(0.0, 1.0)) / now } else { 1.0 }
+        };
+        (factor(&self.hammer.stiffness, hardness), factor(&self.hammer.position, position))
     }
 
     /// MPE's member channels' bend range, semitones, or None with MPE off.

@@ -5,9 +5,10 @@
 use std::sync::Arc;
 
 use nice_plug::prelude::*;
-use struck_engine::synth::{BendRouter, Controls, Delivery, Event, PressureRouter, Synth, TimedEvent};
+use struck_engine::synth::{BendRouter, Controls, Delivery, Event, HammerRouter, PressureRouter, Synth, TimedEvent};
 
 use crate::keyboard::{KeyboardLink, PanelSeen};
+use crate::params::StruckParams;
 
 /// Engine events one `process` call gathers before rendering what it has so far
 /// (an incoming event becomes at most [`MAX_EVENTS_PER_HOST_EVENT`] of them).
@@ -36,6 +37,11 @@ pub struct Performer {
     voices: [(VoiceId, u8); 128],
     pressure: PressureRouter,
     bends: BendRouter,
+    hammers: HammerRouter,
+    /// Per key, its voice's polyphonic modulation of the hammer's hardness and
+    /// strike position (normalized offsets), and the parameters they offset.
+    poly_offsets: [(f32, f32); 128],
+    params: Option<Arc<StruckParams>>,
     /// Keys whose volume a CLAP note's expression moved (set back at their next note-on).
     voiced: [bool; 128],
     /// Per channel, the low 7 bits a high-resolution velocity prefix (CC 88)
@@ -58,12 +64,20 @@ impl Performer {
             voices: [(None, 0); 128],
             pressure: PressureRouter::default(),
             bends: BendRouter::default(),
+            hammers: HammerRouter::default(),
+            poly_offsets: [(0.0, 0.0); 128],
+            params: None,
             voiced: [false; 128],
             velocity_low: [None; 16],
             reset_pending: false,
             keyboard: Arc::new(KeyboardLink::default()),
             panel_seen: PanelSeen::default(),
         }
+    }
+
+    /// Take the hammer parameters' polyphonic modulation against `params`.
+    pub fn with_params(self, params: Arc<StruckParams>) -> Self {
+        Self { params: Some(params), ..self }
     }
 
     /// Play the keys the panel's keyboard strikes, and show it what is held.
@@ -79,6 +93,7 @@ impl Performer {
     /// (None). Real-time safe.
     pub fn set_mpe(&mut self, range: Option<f32>) {
         self.bends.set_mpe(range);
+        self.hammers.set_mpe(range.is_some());
     }
 
     /// Offline only (it waits): install the instrument the settings ask for
@@ -113,6 +128,8 @@ impl Performer {
             self.events.push(TimedEvent::new(0, Event::Reset));
             self.pressure.reset();
             self.bends.reset();
+            self.hammers.reset();
+            self.poly_offsets = [(0.0, 0.0); 128];
             self.velocity_low = [None; 16];
         }
         let events = &mut self.events;
@@ -160,12 +177,15 @@ impl Performer {
                 if std::mem::take(&mut self.voiced[key as usize]) {
                     push(Event::KeyVolume { key, gain: 1.0 });
                 }
+                self.poly_offsets[key as usize] = (0.0, 0.0);
+                self.hammers.note_on(key, channel).into_iter().for_each(&mut push);
                 push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
             NoteEvent::NoteOff { key: Key::Number(key), velocity, .. } if key < 128 => {
                 self.pressure.note_off(key);
                 self.bends.note_off(key);
+                self.hammers.note_off(key);
                 push(Event::NoteOff { key, velocity });
             }
             NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
@@ -190,6 +210,9 @@ impl Performer {
             NoteEvent::MidiCC { cc: HIGH_RESOLUTION_VELOCITY, channel, value, .. } => {
                 self.velocity_low[channel as usize & 15] = Some((value.clamp(0.0, 1.0) * 127.0).round() as u8);
             }
+            NoteEvent::MidiCC { cc: struck_engine::synth::cc::TIMBRE, channel, value, .. } => {
+                self.hammers.timbre(channel, value, push)
+            }
             NoteEvent::MidiCC { cc, value, .. } => {
                 Event::from_controller(cc, value).into_iter().flatten().for_each(push)
             }
@@ -203,7 +226,47 @@ impl Performer {
             NoteEvent::PolyTuning { key: Key::Number(key), tuning, .. } if key < 128 => {
                 push(self.bends.key_tuning(key, tuning))
             }
+            // A CLAP note's brightness expression: its hammer's hardness.
+            NoteEvent::PolyBrightness { key: Key::Number(key), brightness, .. } if key < 128 => {
+                if let Some(e) = self.hammers.brightness(key, brightness) {
+                    self.push_before_strike(time, e);
+                }
+            }
+            NoteEvent::PolyModulation { voice_id, poly_modulation_id, normalized_offset, .. } => {
+                let Some(key) = self.voices.iter().position(|(v, _)| *v == Some(voice_id)) else { return };
+                let offsets = &mut self.poly_offsets[key];
+                match poly_modulation_id {
+                    crate::params::POLY_HARDNESS => offsets.0 = normalized_offset,
+                    crate::params::POLY_POSITION => offsets.1 = normalized_offset,
+                    _ => return,
+                }
+                let Some(params) = self.params.as_ref() else { return };
+                let (hardness, position) = params.hammer_modulation(*offsets);
+                if let Some(e) = self.hammers.modulate(key as u8, hardness, position) {
+                    self.push_before_strike(time, e);
+                }
+            }
             _ => {}
+        }
+    }
+}
+
+impl Performer {
+    /// Push `event` (a key's own hammer) at `time`, ahead of that key's strike
+    /// if it was struck at the same sample: a CLAP host sends a note's
+    /// expressions and modulation just after its note-on, and they shape that
+    /// note's own strike.
+    fn push_before_strike(&mut self, time: u32, event: Event) {
+        let Event::KeyHammer { key, .. } = event else { return };
+        let same_time = self.events.iter().rev().take_while(|e| e.time == time).count();
+        let at = self.events[self.events.len() - same_time..]
+            .iter()
+            .rposition(|e| matches!(e.event, Event::NoteOn { key: k, .. } if k == key))
+            .map(|i| self.events.len() - same_time + i)
+            .filter(|_| self.events.len() < self.events.capacity());
+        match at {
+            Some(i) => self.events.insert(i, TimedEvent::new(time, event)),
+            None => self.events.push(TimedEvent::new(time, event)),
         }
     }
 }
@@ -580,6 +643,99 @@ mod tests {
         let (a, e) = (pitch_near(&first[24_000..], a3), pitch_near(&first[24_000..], e4));
         eprintln!("MPE off: A3 {:.1} cents, E4 {:.1}", cents(a, a3), cents(e, e4));
         assert!((cents(a, a3) - 8.3).abs() < 3.0 && (cents(e, e4) - 8.3).abs() < 3.0, "{a} {e}");
+    }
+
+    /// The level (dB) of the strongest bin of `x` within 2 % above `hz`
+    /// (a stiff string's partial runs sharp), Hann window.
+    fn partial_db(x: &[f32], hz: f64) -> f64 {
+        let n = x.len();
+        let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n);
+        let mut input: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()) * f64::from(*v))
+            .collect();
+        let mut spectrum = fft.make_output_vec();
+        fft.process(&mut input, &mut spectrum).unwrap();
+        let bin = FS / n as f64;
+        let (lo, hi) = ((hz * 0.995 / bin) as usize, (hz * 1.02 / bin) as usize);
+        20.0 * spectrum[lo..=hi].iter().map(|c| c.norm()).fold(1e-30, f64::max).log10()
+    }
+
+    #[test]
+    fn brightness_timbre_and_poly_modulation_shape_the_notes_own_strike() {
+        // C3 on the bridge force (no body in between), struck alone; how loud
+        // its 9th-14th partials are against its first, over 0.05-0.55 s.
+        let c3 = 130.813;
+        let strike = |events: &[NoteEvent<()>], mpe: bool| {
+            let mut settings = settings(InstrumentKind::Piano);
+            settings = settings.heard_through(struck_engine::body::Output::BridgeForce);
+            let wanted = Arc::new(Mutex::new(settings));
+            let (p, _workshop) = performer(&wanted);
+            let mut p = p.with_params(Arc::new(StruckParams::default()));
+            p.set_mpe(mpe.then_some(48.0));
+            let mut port = Port::new();
+            port.load(events);
+            let controls = Controls { output: struck_engine::body::Output::BridgeForce, ..Controls::default() };
+            let total = (0.6 * FS) as usize;
+            let mut out = Vec::with_capacity(total);
+            let (mut l, mut r) = (vec![0.0; 256], vec![0.0; 256]);
+            while out.len() < total {
+                p.process(controls, &mut port, &mut l, &mut r);
+                port.load(&[]);
+                out.extend_from_slice(&l);
+            }
+            let x = &out[(0.05 * FS) as usize..(0.55 * FS) as usize];
+            let high = (9..=14).map(|n| partial_db(x, n as f64 * c3)).sum::<f64>() / 6.0;
+            (high - partial_db(x, c3), partial_db(x, 4.0 * c3) - partial_db(x, c3))
+        };
+        let brightness = |b: f32| NoteEvent::PolyBrightness {
+            timing: 0,
+            voice_id: VoiceID::ID(1),
+            channel: Channel::Number(0),
+            key: Key::Number(48),
+            brightness: b,
+        };
+        let modulation = |id: u32, offset: f32| NoteEvent::PolyModulation {
+            timing: 0,
+            voice_id: 1,
+            poly_modulation_id: id,
+            normalized_offset: offset,
+        };
+        let (plain, plain_4th) = strike(&[note_on(0, 48, 0.7, 1, 0)], false);
+        // The expressions come just after the note-on, at its sample, as CLAP hosts send them.
+        let (bright, _) = strike(&[note_on(0, 48, 0.7, 1, 0), brightness(1.0)], false);
+        let (dark, _) = strike(&[note_on(0, 48, 0.7, 1, 0), brightness(0.0)], false);
+        let (harder, _) = strike(&[note_on(0, 48, 0.7, 1, 0), modulation(crate::params::POLY_HARDNESS, 0.5)], false);
+        // The strike position parameter's full travel up from the middle is 4 times
+        // the built 0.13: C3's hammer at a quarter of the string (its 4th partial's node).
+        let factor = StruckParams::default().hammer_modulation((0.0, 0.5)).1;
+        let (_, moved_4th) = strike(&[note_on(0, 48, 0.7, 1, 0), modulation(crate::params::POLY_POSITION, 0.5)], false);
+        // MPE: the member channel's CC74 before its note.
+        let timbre = NoteEvent::MidiCC { timing: 0, channel: 2, cc: 74, value: 1.0 };
+        let (mpe_bright, _) = strike(&[timbre, note_on(0, 48, 0.7, 1, 2)], true);
+        let (mpe_off, _) = strike(&[timbre, note_on(0, 48, 0.7, 1, 2)], false);
+        eprintln!(
+            "C3's partials 9-14 re its 1st: {plain:.1} dB as voiced; brightness 1: {bright:.1}, 0: {dark:.1}; \
+             hardness modulated +0.5: {harder:.1}; MPE timbre 1: {mpe_bright:.1} (MPE off: {mpe_off:.1}); \
+             strike position modulated x{factor:.2}: 4th partial re the 1st {plain_4th:.1} -> {moved_4th:.1} dB"
+        );
+        assert!(bright > plain + 3.0 && dark < plain - 3.0, "{dark:.1} {plain:.1} {bright:.1}");
+        assert!(harder > plain + 3.0, "{harder:.1} against {plain:.1}");
+        assert!(mpe_bright > plain + 3.0 && (mpe_off - plain).abs() < 0.01, "{mpe_bright:.1} {mpe_off:.1}");
+        assert!((factor - 4.0).abs() < 1e-3, "{factor}");
+        assert!(moved_4th < plain_4th - 15.0, "{plain_4th:.1} -> {moved_4th:.1} dB");
+        // The expression goes ahead of its note's strike; the next note on the
+        // key strikes as voiced again.
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let (mut p, _workshop) = performer(&wanted);
+        for (event, time) in [(note_on(0, 48, 0.7, 1, 0), 5), (brightness(1.0), 5), (note_on(0, 48, 0.7, 2, 0), 9)] {
+            p.translate(event, time);
+        }
+        let hammer = |hardness| Event::KeyHammer { key: 48, hardness, position: 1.0 };
+        let strike = Event::NoteOn { key: 48, velocity: 0.7 };
+        let events: Vec<(u32, Event)> = p.events.iter().map(|e| (e.time, e.event)).collect();
+        assert_eq!(events, [(5, hammer(4.0)), (5, strike), (9, hammer(1.0)), (9, strike)]);
     }
 
     #[test]

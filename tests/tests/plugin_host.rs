@@ -21,7 +21,9 @@ use clack_extensions::render::{PluginRender, RenderMode};
 use clack_extensions::state::PluginState;
 use clack_extensions::voice_info::{HostVoiceInfo, HostVoiceInfoImpl, PluginVoiceInfo};
 use clack_host::events::Match;
-use clack_host::events::event_types::{MidiEvent, NoteOffEvent, NoteOnEvent, ParamValueEvent};
+use clack_host::events::event_types::{
+    MidiEvent, NoteExpressionEvent, NoteExpressionType, NoteOffEvent, NoteOnEvent, ParamModEvent, ParamValueEvent,
+};
 use clack_host::events::spaces::CoreEventSpace;
 use clack_host::prelude::*;
 use struck_engine::rng::Rng;
@@ -491,6 +493,76 @@ fn offline_an_automated_voicing_is_heard_from_its_sample_and_every_bounce_is_the
     eprintln!("automated against heavy throughout {to_heavy:.1} dB, against light {to_light:.1} dB");
     assert!(to_light > -20.0, "the two masses sound alike ({to_light:.1} dB): no test");
     assert!(to_heavy < -120.0, "the note struck at the change is not the new hammer's ({to_heavy:.1} dB)");
+}
+
+/// The strongest level (dB) within 2 % above `hz` (a stiff string's partials
+/// run sharp), Hann window, 41 frequencies.
+fn partial_db(samples: &[f32], hz: f64) -> f64 {
+    let n = samples.len() as f64;
+    let power = |f: f64| {
+        let w = 2.0 * std::f64::consts::PI * f / FS;
+        let (mut re, mut im) = (0.0, 0.0);
+        for (i, v) in samples.iter().enumerate() {
+            let hann = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n).cos();
+            re += hann * *v as f64 * (w * i as f64).cos();
+            im += hann * *v as f64 * (w * i as f64).sin();
+        }
+        re * re + im * im
+    };
+    10.0 * (0..=40).map(|i| power(hz * (1.0 + 0.02 * i as f64 / 40.0))).fold(1e-30, f64::max).log10()
+}
+
+#[test]
+fn a_notes_brightness_and_its_hammers_modulation_reach_its_strike() {
+    // C3 with note id 1; just after its note-on, at the same sample, as a CLAP
+    // host sends them: a brightness expression of 1 (the felt 4 times harder),
+    // or a per-note modulation of the felt stiffness by half its travel.
+    // Heard as the bridge force (no body between), its 10th-12th partials
+    // against its 1st, over 0.05-0.35 s.
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let strike = |then: Option<&dyn Fn(&[(String, ClapId, f64)]) -> Box<dyn Fn(&mut EventBuffer)>>| {
+        let mut instance = loaded.instance();
+        let ids = param_ids(&mut instance);
+        {
+            let mut changes = EventBuffer::new();
+            changes.push(&set(0, param(&ids, "Output"), 1.0));
+            let mut handle = instance.inactive_plugin_handle().expect("inactive");
+            let params: PluginParams = handle.get_extension().unwrap();
+            params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
+        }
+        let mut events = EventBuffer::new();
+        events.push(&note_on(5, 48, 1, 0.7));
+        if let Some(then) = then {
+            then(&ids)(&mut events);
+        }
+        let run = process(&mut instance, &vec![BLOCK; (0.4 * FS) as usize / BLOCK], &vec![(0, events)], Duration::ZERO);
+        let x = &run.left[(0.05 * FS) as usize..(0.35 * FS) as usize];
+        let c3 = 130.81;
+        (10..=12).map(|n| partial_db(x, n as f64 * c3)).sum::<f64>() / 3.0 - partial_db(x, c3)
+    };
+    let plain = strike(None);
+    let brightness = |b: f64| {
+        Box::new(move |events: &mut EventBuffer| {
+            events.push(&NoteExpressionEvent::new(5, Pckn::new(0u16, 0u16, 48u16, 1u32), NoteExpressionType::Brightness, b))
+        }) as Box<dyn Fn(&mut EventBuffer)>
+    };
+    let bright = strike(Some(&|_| brightness(1.0)));
+    let dark = strike(Some(&|_| brightness(0.0)));
+    let modulated = strike(Some(&|ids| {
+        let (stiffness, max) = param(ids, "Felt stiffness K");
+        Box::new(move |events: &mut EventBuffer| {
+            events.push(&ParamModEvent::new(5, stiffness, Pckn::new(0u16, 0u16, 48u16, 1u32), 0.5 * max))
+        })
+    }));
+    eprintln!(
+        "C3's partials 10-12 re its 1st: {plain:.2} dB; brightness 1: {bright:.2}, 0: {dark:.2}; \
+         stiffness modulated +0.5: {modulated:.2}"
+    );
+    assert!(bright > plain + 2.0 && dark < plain - 2.0, "brightness: {dark:.1} {plain:.1} {bright:.1} dB");
+    // Half the stiffness parameter's travel up from its middle is 4 times the
+    // felt's stiffness, as is full brightness: the same strike.
+    assert!((modulated - bright).abs() < 0.01, "modulation: {modulated:.2} against {bright:.2} dB");
 }
 
 #[test]

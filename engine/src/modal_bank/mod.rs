@@ -208,23 +208,39 @@ impl DriveTable {
             observe_per_input: 0.0,
             bridge_per_input: 0.0,
         };
-        for i in 0..gain.len() {
+        table.refill(step, hold, weight, gain.len(), |i| gain[i], |i| observe[i]);
+        table
+    }
+
+    /// The same table for other gains and observations (of the first `modes`
+    /// modes; the rest stay at rest), in place. Allocates: no.
+    pub fn refill(
+        &mut self,
+        step: &StepTable,
+        hold: Hold,
+        weight: &[f64],
+        modes: usize,
+        gain: impl Fn(usize) -> f64,
+        observe: impl Fn(usize) -> f64,
+    ) {
+        self.observe_per_input = 0.0;
+        self.bridge_per_input = 0.0;
+        for i in 0..modes.min(self.observe.len()) {
             let (start, end) = match hold {
                 Hold::Linear => (step.start[i], step.end[i]),
                 Hold::End => (Complex64::new(0.0, 0.0), step.start[i] + step.end[i]),
             };
-            let b0 = start * (weight[i] * gain[i]);
-            let b1 = end * (weight[i] * gain[i]);
+            let b0 = start * (weight[i] * gain(i));
+            let b1 = end * (weight[i] * gain(i));
             let carry = step.pole(i) * b1 + b0;
-            table.carry_re[i] = carry.re;
-            table.carry_im[i] = carry.im;
-            table.ramp_re[i] = b1.re;
-            table.ramp_im[i] = b1.im;
-            table.observe[i] = observe[i] / weight[i];
-            table.observe_per_input += table.observe[i] * b1.re;
-            table.bridge_per_input += b1.re;
+            self.carry_re[i] = carry.re;
+            self.carry_im[i] = carry.im;
+            self.ramp_re[i] = b1.re;
+            self.ramp_im[i] = b1.im;
+            self.observe[i] = observe(i) / weight[i];
+            self.observe_per_input += self.observe[i] * b1.re;
+            self.bridge_per_input += b1.re;
         }
-        table
     }
 }
 

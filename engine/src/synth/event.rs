@@ -33,6 +33,12 @@ pub enum Event {
     /// One key's own output gain (a CLAP note's volume expression), 1 as
     /// built; it glides there over the next stretch and holds until the next.
     KeyVolume { key: u8, gain: f32 },
+    /// One key's own hammer (or mallets) over the instrument's voicing, for
+    /// its next strikes: the felt's stiffness and the strike position as
+    /// factors, 1 as voiced (a CLAP note's brightness expression, the hammer
+    /// parameters' polyphonic modulation, MPE timbre). The strike point stays
+    /// within 2 % to 50 % of the string. It holds until the next one for the key.
+    KeyHammer { key: u8, hardness: f32, position: f32 },
     /// CC123: every key is released (dampers fall where the pedals allow).
     AllNotesOff,
     /// CC120 / reset: every key falls silent within a few milliseconds, pedals up, bend centred.
@@ -179,8 +185,124 @@ impl BendRouter {
     }
 }
 
+/// Turns what shapes a note's own hammer into [`Event::KeyHammer`]: a CLAP
+/// note's brightness expression and MPE timbre (CC74 on a member channel) set
+/// its felt's hardness, [`HAMMER_SPAN`] times softer at 0 to as many times
+/// harder at 1, as voiced at 0.5; the hammer parameters' polyphonic
+/// modulation sets hardness and strike position factors of its own. A key
+/// starts each note as voiced (or, on an MPE member channel, from the
+/// channel's timbre). Fixed size: real-time safe.
+#[derive(Clone, Debug)]
+pub struct HammerRouter {
+    mpe: bool,
+    channel_of: [Option<u8>; 128],
+    /// Each channel's last timbre, 0..=1 (0.5: none).
+    channel_timbre: [f32; 16],
+    /// Per key: its brightness (0.5 as voiced) and the modulation's hardness
+    /// and position factors; and what the synth was last told.
+    brightness: [f32; 128],
+    modulation: [(f32, f32); 128],
+    sent: [(f32, f32); 128],
+}
+
+/// How many times harder (or softer) full brightness (or none) makes a felt.
+pub const HAMMER_SPAN: f32 = 4.0;
+
+impl Default for HammerRouter {
+    fn default() -> Self {
+        Self {
+            mpe: false,
+            channel_of: [None; 128],
+            channel_timbre: [0.5; 16],
+            brightness: [0.5; 128],
+            modulation: [(1.0, 1.0); 128],
+            sent: [(1.0, 1.0); 128],
+        }
+    }
+}
+
+impl HammerRouter {
+    /// MPE on (member channels' CC74 is their notes' timbre) or off.
+    pub fn set_mpe(&mut self, on: bool) {
+        self.mpe = on;
+    }
+
+    /// The key's hammer as it stands, if the synth has not been told.
+    fn changed(&mut self, key: u8) -> Option<Event> {
+        let k = key as usize & 127;
+        let brightness = self.brightness[k].clamp(0.0, 1.0);
+        let (hardness, position) = self.modulation[k];
+        let now = (HAMMER_SPAN.powf(2.0 * brightness - 1.0) * hardness, position);
+        (now != std::mem::replace(&mut self.sent[k], now)).then_some(Event::KeyHammer {
+            key,
+            hardness: now.0,
+            position: now.1,
+        })
+    }
+
+    /// A key went down on `channel`: the hammer it strikes with, if it differs
+    /// from what the synth has.
+    pub fn note_on(&mut self, key: u8, channel: u8) -> Option<Event> {
+        let (k, channel) = (key as usize & 127, channel & 15);
+        self.channel_of[k] = Some(channel);
+        self.brightness[k] = if self.mpe && channel != 0 { self.channel_timbre[channel as usize] } else { 0.5 };
+        self.modulation[k] = (1.0, 1.0);
+        self.changed(key)
+    }
+
+    /// A key came up (its hammer stays until its next note).
+    pub fn note_off(&mut self, key: u8) {
+        self.channel_of[key as usize & 127] = None;
+    }
+
+    /// A note's brightness expression, 0..=1.
+    pub fn brightness(&mut self, key: u8, brightness: f32) -> Option<Event> {
+        if !brightness.is_finite() {
+            return None;
+        }
+        self.brightness[key as usize & 127] = brightness;
+        self.changed(key)
+    }
+
+    /// The hammer parameters' polyphonic modulation of `key`: hardness and
+    /// strike position factors over the parameters' own values.
+    pub fn modulate(&mut self, key: u8, hardness: f32, position: f32) -> Option<Event> {
+        if !(hardness.is_finite() && position.is_finite() && hardness > 0.0 && position > 0.0) {
+            return None;
+        }
+        self.modulation[key as usize & 127] = (hardness, position);
+        self.changed(key)
+    }
+
+    /// CC74 (0..=1) on `channel`: with MPE, the timbre of the notes held on a
+    /// member channel (and of those it plays next), passed to `emit`.
+    pub fn timbre(&mut self, channel: u8, value: f32, mut emit: impl FnMut(Event)) {
+        let channel = channel & 15;
+        if !self.mpe || channel == 0 || !value.is_finite() {
+            return;
+        }
+        self.channel_timbre[channel as usize] = value;
+        for key in 0..128u8 {
+            if self.channel_of[key as usize] == Some(channel) {
+                self.brightness[key as usize] = value;
+                if let Some(e) = self.changed(key) {
+                    emit(e);
+                }
+            }
+        }
+    }
+
+    /// Every key up, every channel's timbre at none, every key as voiced
+    /// (the synth's reset sets its keys' hammers back too).
+    pub fn reset(&mut self) {
+        *self = Self { mpe: self.mpe, ..Self::default() };
+    }
+}
+
 /// MIDI controllers Struck answers.
 pub mod cc {
+    /// MPE's timbre (its Y axis, "brightness").
+    pub const TIMBRE: u8 = 74;
     pub const MOD_WHEEL: u8 = 1;
     pub const SUSTAIN: u8 = 64;
     pub const SOSTENUTO: u8 = 66;
@@ -273,5 +395,31 @@ mod tests {
         assert_eq!(Event::pitch_wheel(0), -1.0);
         assert_eq!(Event::pitch_wheel(8192), 0.0);
         assert_eq!(Event::pitch_wheel(16383), 1.0);
+    }
+
+    #[test]
+    fn a_notes_hammer_follows_brightness_timbre_and_modulation() {
+        let mut h = HammerRouter::default();
+        // As voiced: nothing to say.
+        assert_eq!(h.note_on(60, 0), None);
+        assert_eq!(h.brightness(60, 1.0), Some(Event::KeyHammer { key: 60, hardness: 4.0, position: 1.0 }));
+        assert_eq!(h.brightness(60, 1.0), None, "no change, no event");
+        assert_eq!(h.modulate(60, 0.5, 2.0), Some(Event::KeyHammer { key: 60, hardness: 2.0, position: 2.0 }));
+        // The next note on the key starts as voiced.
+        assert_eq!(h.note_on(60, 0), Some(Event::KeyHammer { key: 60, hardness: 1.0, position: 1.0 }));
+        assert_eq!(h.brightness(60, 0.0), Some(Event::KeyHammer { key: 60, hardness: 0.25, position: 1.0 }));
+        // MPE timbre: a member channel's CC74 reaches its notes and the next one on it.
+        let mut out = Vec::new();
+        h.timbre(3, 1.0, |e| out.push(e));
+        assert!(out.is_empty(), "MPE off: CC74 is nothing");
+        h.set_mpe(true);
+        assert_eq!(h.note_on(64, 3), None);
+        h.timbre(3, 1.0, |e| out.push(e));
+        assert_eq!(out, [Event::KeyHammer { key: 64, hardness: 4.0, position: 1.0 }]);
+        assert_eq!(h.note_on(67, 3), Some(Event::KeyHammer { key: 67, hardness: 4.0, position: 1.0 }));
+        out.clear();
+        h.timbre(0, 1.0, |e| out.push(e));
+        assert!(out.is_empty(), "the master channel's CC74 is not a note's timbre");
+        assert_eq!(h.modulate(64, f32::NAN, 1.0), None);
     }
 }

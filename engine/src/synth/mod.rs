@@ -21,7 +21,7 @@ mod workshop;
 
 use serde::{Deserialize, Serialize};
 
-pub use event::{BendRouter, Event, PressureRouter, TimedEvent};
+pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, TimedEvent, cc};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 
@@ -646,6 +646,11 @@ impl Synth {
                     k.set_volume(f64::from(gain));
                 }
             }
+            Event::KeyHammer { key, hardness, position } if hardness.is_finite() && position.is_finite() => {
+                if let Some((k, _)) = self.current.route(key) {
+                    k.set_hammer(f64::from(hardness), f64::from(position));
+                }
+            }
             Event::KeyBend { key, semitones } if semitones.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.set_tune(2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0));
@@ -659,6 +664,7 @@ impl Synth {
             | Event::Pressure { .. }
             | Event::KeyBend { .. }
             | Event::KeyVolume { .. }
+            | Event::KeyHammer { .. }
             | Event::UnaCorda(_)
             | Event::Sustain(_)
             | Event::PitchBend(_) => {}
@@ -687,6 +693,7 @@ impl Synth {
                 for k in self.current.keys.iter_mut().flatten() {
                     k.set_tune(1.0);
                     k.set_volume(1.0);
+                    k.set_hammer(1.0, 1.0);
                 }
             }
         }

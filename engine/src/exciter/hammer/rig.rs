@@ -85,6 +85,8 @@ struct Strike {
 pub struct HammerRig {
     tables: HammerTables,
     strike: Option<Strike>,
+    /// The modes' shapes at the strike point (kept to move it without allocating).
+    shape: Vec<f64>,
 }
 
 impl HammerRig {
@@ -102,7 +104,28 @@ impl HammerRig {
                 relax: residual.relax(f.step.step_s),
             })
             .collect();
-        Self { tables: HammerTables { position, audio: audio_drive, fine, residual }, strike: None }
+        Self { tables: HammerTables { position, audio: audio_drive, fine, residual }, strike: None, shape }
+    }
+
+    /// The same tables for striking at `position` instead, in place (the
+    /// string, bank and step sizes those were made for). Allocates: no.
+    pub fn move_to(&mut self, string: &StringModes, bank: &ModalBank, audio: &StepTable, fine: &[Substep], position: f64) {
+        if position == self.tables.position {
+            return;
+        }
+        let m = string.modal_mass_kg();
+        for (s, mode) in self.shape.iter_mut().zip(&string.modes) {
+            *s = string.shape_at(mode, position);
+        }
+        let (shape, modes) = (&self.shape, self.shape.len());
+        self.tables.audio.refill(audio, Hold::End, bank.weights(), modes, |i| shape[i] / m, |i| shape[i]);
+        let residual = Residual::new(string, position, audio.step_s);
+        for (table, f) in self.tables.fine.iter_mut().zip(fine) {
+            table.drive.refill(&f.step, Hold::End, bank.weights(), modes, |i| shape[i] / m, |i| shape[i]);
+            table.relax = residual.relax(f.step.step_s);
+        }
+        self.tables.residual = residual;
+        self.tables.position = position;
     }
 
     /// The strike point, as a fraction of the length from the bridge.

@@ -5,6 +5,10 @@
 # it again. The two renders must be the same bytes and sound, the parameters
 # set away from their defaults must come back, and reopening must not flood
 # the plugin's event lists (the wrapper says so in its log when one grows).
+# Then automation: a piano session whose hammer mass steps from 0.6 to 1.7
+# at the sample of its one note is bounced, reopened and bounced again, and
+# a session with the mass at 1.7 throughout is bounced: all three must be the
+# same samples (the change heard from its sample, every bounce alike).
 #
 # usage: roundtrip.sh STRUCK_VST3_BUNDLE LOG_DIR
 set -euo pipefail
@@ -64,4 +68,25 @@ for i in "${!instruments[@]}"; do
   for c in 0 1; do
     python3 "$here/same_sound.py" "${first_files[$c]}" "${again_files[$c]}" "$name, channel $((c + 1))"
   done
+done
+
+# Automation at the sample, and bounces alike.
+export STRUCK_INSTRUMENT=0 NICE_LOG=$logs/automation-plugin.log
+for step in "automated automate" "automated reopen" "steady steady"; do
+  read -r session mode <<<"$step"
+  out=$logs/automation-$mode.log
+  if ! ardour7-lua "$here/struck_session.lua" "$mode" "$work/$session" "$mode" >"$out" 2>&1; then
+    echo "ardour: automation: $mode failed (see $out)"
+    tail -n 5 "$out"
+    exit 1
+  fi
+done
+mapfile -t automated < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-automate.log")
+mapfile -t again < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-reopen.log")
+mapfile -t steady < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-steady.log")
+for c in 0 1; do
+  python3 "$here/same_sound.py" "${automated[$c]}" "${again[$c]}" "automated piano, channel $((c + 1))" \
+    "the automated session's second bounce"
+  python3 "$here/same_sound.py" "${automated[$c]}" "${steady[$c]}" "automated piano, channel $((c + 1))" \
+    "the mass stepped at the note's sample against the mass there throughout"
 done

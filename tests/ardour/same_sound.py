@@ -1,5 +1,6 @@
 """Whether two WAV exports (PCM or float) hold the same bytes of sound, and
-that sound is not silence. usage: same_sound.py FIRST.wav SECOND.wav NAME"""
+that sound is not silence. usage: same_sound.py FIRST.wav SECOND.wav NAME [WHAT]
+(WHAT: what the second is, "the reopened session" unless given)"""
 import math
 import struct
 import sys
@@ -36,6 +37,7 @@ def peak_dbfs(fmt, samples):
 
 
 first, second, name = sys.argv[1], sys.argv[2], sys.argv[3]
+what = sys.argv[4] if len(sys.argv) > 4 else "the reopened session"
 (fmt_a, a), (fmt_b, b) = sound(first), sound(second)
 if fmt_a != fmt_b or len(a) != len(b):
     sys.exit(f"ardour: {name}: the exports differ in format or length ({fmt_a}, {len(a)} against {fmt_b}, {len(b)} bytes)")
@@ -44,5 +46,5 @@ if peak < -60:
     sys.exit(f"ardour: {name}: the export is silent (peak {peak:.1f} dBFS)")
 if a != b:
     frame = next(i for i in range(len(a)) if a[i] != b[i]) // (fmt_a[1] * fmt_a[3] // 8)
-    sys.exit(f"ardour: {name}: the reopened session sounds different from frame {frame} ({frame / fmt_a[2]:.4f} s)")
-print(f"ardour: {name}: reopened, the same {len(a) // (fmt_a[1] * fmt_a[3] // 8)} frames (peak {peak:.1f} dBFS)")
+    sys.exit(f"ardour: {name}: {what} sounds different from frame {frame} ({frame / fmt_a[2]:.4f} s)")
+print(f"ardour: {name}: {what}, the same {len(a) // (fmt_a[1] * fmt_a[3] // 8)} frames (peak {peak:.1f} dBFS)")

@@ -11,7 +11,13 @@
 -- freewheeling export (which corrupts its own heap now and then, with its own
 -- synth too).
 --
--- usage: ardour7-lua struck_session.lua create|reopen SESSION_DIR RENDER_NAME
+-- `automate` makes a session whose only note, C4 at 2 s, is struck at the
+-- sample where the hammer's mass is automated from 0.6 to 1.7 (a step), saves
+-- and renders it; `steady` the same with the mass at 1.7 throughout. A
+-- bounce of the automated session (again when `reopen`ed) must be the
+-- steady one's, sample for sample.
+--
+-- usage: ardour7-lua struck_session.lua create|reopen|automate|steady SESSION_DIR RENDER_NAME
 -- environment: STRUCK_INSTRUMENT, the "Instrument" parameter's index (0-6).
 
 local mode, session_dir, render_name = arg[1], arg[2], arg[3]
@@ -71,7 +77,13 @@ for i, key in ipairs({ 60, 62, 64, 65, 67, 69, 71, 72 }) do
   NOTES[#NOTES + 1] = { key, 40 + 10 * i, t, t + 0.225 }
 end
 
-local function create()
+-- The automated step: at 2 s (on a beat at 120 bpm, so the session's
+-- musical time holds it to the sample), where the one note is struck.
+local STEP = 2 * RATE
+local LIGHT, HEAVY = 0.6, 1.7
+
+-- A new session with Struck on a MIDI track playing `notes`; the track.
+local function new_session(notes)
   assert(create_session(session_dir, SNAPSHOT, RATE), "could not create the session")
   local info = ARDOUR.LuaAPI.new_plugin_info("Struck", ARDOUR.PluginType.VST3)
   assert(not info:isnil(), "Struck.vst3 is not in Ardour's plugin cache")
@@ -97,20 +109,52 @@ local function create()
   local tempo = Temporal.TempoMap.read()
   local function beats(seconds) return tempo:quarters_at(Temporal.timepos_t(math.floor(seconds * RATE + 0.5))) end
   local command = model:new_note_diff_command("add notes")
-  for _, n in ipairs(NOTES) do
+  for _, n in ipairs(notes) do
     local from, to = beats(n[3]), beats(n[4])
     command:add(ARDOUR.LuaAPI.new_noteptr(0, from, to - from, n[1], n[2]))
   end
   model:apply_command(Session, command)
+  return track, processor
+end
 
-  local plugin = processor:to_insert():plugin(0)
-  for _, s in ipairs(SETTINGS) do
-    assert(ARDOUR.LuaAPI.set_processor_param(processor, parameter_index(plugin, s[1]), s[2]), "could not set " .. s[1])
-  end
+local function save_and_render(track, processor)
   settle()
   print_params(processor)
   assert(Session:save_state("", false, false, false, false, false) == 0, "could not save the session")
   render(track)
+end
+
+local function create()
+  local track, processor = new_session(NOTES)
+  local plugin = processor:to_insert():plugin(0)
+  for _, s in ipairs(SETTINGS) do
+    assert(ARDOUR.LuaAPI.set_processor_param(processor, parameter_index(plugin, s[1]), s[2]), "could not set " .. s[1])
+  end
+  save_and_render(track, processor)
+end
+
+-- The hammer's mass stepped from LIGHT to HEAVY at STEP (`automated`), or
+-- HEAVY throughout.
+local function automation(automated)
+  local track, processor = new_session({ { 60, 100, STEP / RATE, STEP / RATE + 1.0 } })
+  local plugin = processor:to_insert():plugin(0)
+  local mass = parameter_index(plugin, "Hammer mass")
+  if not automated then
+    assert(ARDOUR.LuaAPI.set_processor_param(processor, mass, HEAVY), "could not set the mass")
+  else
+    local list, points = ARDOUR.LuaAPI.plugin_automation(processor, mass)
+    assert(not list:isnil(), "no automation for the hammer's mass")
+    points:clear_list()
+    points:set_interpolation(Evoral.InterpolationStyle.Discrete)
+    points:add(Temporal.timepos_t(0), LIGHT, false, false)
+    points:add(Temporal.timepos_t(STEP), HEAVY, false, false)
+    local port = plugin:nth_parameter(mass, true)
+    local control = processor:to_automatable():automation_control(
+      Evoral.Parameter(ARDOUR.AutomationType.PluginAutomation, 0, port), false)
+    assert(not control:isnil(), "no automation control for the hammer's mass")
+    control:set_automation_state(ARDOUR.AutoState.Play)
+  end
+  save_and_render(track, processor)
 end
 
 local function reopen()
@@ -125,7 +169,17 @@ local function reopen()
 end
 
 assert(AudioEngine:set_backend("None (Dummy)", "", ""), "no dummy backend")
-if mode == "create" then create() elseif mode == "reopen" then reopen() else error("create or reopen") end
+if mode == "create" then
+  create()
+elseif mode == "reopen" then
+  reopen()
+elseif mode == "automate" then
+  automation(true)
+elseif mode == "steady" then
+  automation(false)
+else
+  error("create, reopen, automate or steady")
+end
 -- Every Lua reference to the session's objects must go before the session
 -- closes (they would be destroyed after it).
 collectgarbage()

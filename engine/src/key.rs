@@ -891,6 +891,12 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                 }
             }
             ExciterDesign::Pluck { position } => {
+                // The plectrum's own point, as the hammer's.
+                let position = if self.hammer_position == 1.0 {
+                    position
+                } else {
+                    (position * self.hammer_position).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT)
+                };
                 for s in strings {
                     s.pluck(PluckSpec { displacement_m: touch * 1e-3, position });
                     s.release_exciter();

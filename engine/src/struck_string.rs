@@ -215,11 +215,15 @@ impl StruckString {
     }
 
     /// Pull the string aside into a triangle and let go (adds to its present state).
-    /// Allocates only when the pluck tables were not prepared for `spec.position`.
+    /// Allocates only when the string has no pluck tables yet (a new plucking
+    /// point rebuilds them in place).
     pub fn pluck(&mut self, spec: PluckSpec) {
         self.release_exciter();
         let mut rig = match std::mem::replace(&mut self.exciter, Exciter::None) {
-            Exciter::Pluck(rig) if rig.position() == spec.position => rig,
+            Exciter::Pluck(mut rig) => {
+                rig.move_to(&self.string, &self.bank, &self.audio, spec.position);
+                rig
+            }
             _ => PluckRig::new(&self.string, &self.bank, &self.audio, spec.position),
         };
         rig.pluck(&mut self.bank, &self.string, spec);

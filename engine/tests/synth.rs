@@ -150,6 +150,15 @@ fn partial_db(out: &[f32], f_hz: f64, n: usize) -> f64 {
     20.0 * spectrum[lo..=hi].iter().map(|c| c.norm()).fold(1e-30, f64::max).log10()
 }
 
+/// Where `key`'s exciter meets its strings as built, a fraction of the length.
+fn exciter_position(kind: InstrumentKind, key: u8) -> f64 {
+    match struck_engine::design::key_design(kind, &Voicing::default(), key, 20_000.0).unwrap().exciter {
+        struck_engine::design::ExciterDesign::Hammer { position, .. }
+        | struck_engine::design::ExciterDesign::Pluck { position } => position,
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
     // C3 on the bridge force: a key's own hardness brightens its next strike;
@@ -157,13 +166,7 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
     // partial (a node there), and at an eighth the 8th. Other keys are not moved.
     let key = 48;
     let f = struck_engine::design::key_frequency_hz(key);
-    let position = |voicing: Voicing| struck_engine::design::key_design(InstrumentKind::Piano, &voicing, key, 20_000.0)
-        .and_then(|d| match d.exciter {
-            struck_engine::design::ExciterDesign::Hammer { position, .. } => Some(position),
-            _ => None,
-        })
-        .unwrap();
-    let built = position(Voicing::default());
+    let built = exciter_position(InstrumentKind::Piano, key);
     let strike = |hammer: Option<(f32, f32)>| {
         let mut s = synth(InstrumentKind::Piano);
         let mut events = vec![];
@@ -181,10 +184,29 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
     assert!(b_hard > b_plain + 3.0 && b_soft < b_plain - 3.0);
     for n in [4usize, 8] {
         let moved = strike(Some((1.0, (1.0 / (n as f64 * built)) as f32)));
-        let (before, after) = (partial_db(&plain, f, n) - partial_db(&plain, f, 1), partial_db(&moved, f, n) - partial_db(&moved, f, 1));
+        let (before, after) =
+            (partial_db(&plain, f, n) - partial_db(&plain, f, 1), partial_db(&moved, f, n) - partial_db(&moved, f, 1));
         println!("C3 struck at 1/{n} (built at {built:.4}): partial {n} re the 1st {before:.1} -> {after:.1} dB");
         assert!(after < before - 15.0, "partial {n}: {before:.1} -> {after:.1} dB");
     }
+    // A harpsichord's plectrum moves the same way: plucked at a quarter of
+    // the string, D3's 4th partial is gone.
+    let (d3, harpsichord_key) = (struck_engine::design::key_frequency_hz(50), 50);
+    let pluck_point = exciter_position(InstrumentKind::Harpsichord, harpsichord_key);
+    let pluck = |position: Option<f32>| {
+        let mut s = synth(InstrumentKind::Harpsichord);
+        let mut events = vec![];
+        if let Some(position) = position {
+            events.push((0.0, Event::KeyHammer { key: harpsichord_key, hardness: 1.0, position }));
+        }
+        events.push((0.0, Event::NoteOn { key: harpsichord_key, velocity: 0.7 }));
+        render(&mut s, 0.6, &events, 256)
+    };
+    let (as_built, moved) = (pluck(None), pluck(Some((0.25 / pluck_point) as f32)));
+    let (before, after) =
+        (partial_db(&as_built, d3, 4) - partial_db(&as_built, d3, 1), partial_db(&moved, d3, 4) - partial_db(&moved, d3, 1));
+    println!("D3 plucked at 1/4 (built at {pluck_point:.4}): partial 4 re the 1st {before:.1} -> {after:.1} dB");
+    assert!(after < before - 15.0, "the plectrum did not move: {before:.1} -> {after:.1} dB");
     // Back to 1: as voiced, bit for bit.
     let mut s = synth(InstrumentKind::Piano);
     let events = [

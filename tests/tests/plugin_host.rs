@@ -339,7 +339,10 @@ fn plays_a_held_note_reports_its_end_and_round_trips_its_state() {
     let ended_block = when / BLOCK;
     let rested = run.keep_alive.iter().rposition(|&k| k).map_or(0, |i| i + 1);
     assert!(run.keep_alive[block_at(0.2)..rested].iter().all(|&k| k), "kept alive while sounding");
-    assert!(rested > ended_block && rested < block_at(when as f64 / FS + 3.0), "the body rests {rested} (key ended {ended_block})");
+    assert!(
+        rested > ended_block && rested < block_at(when as f64 / FS + 3.0),
+        "the body rests {rested} (key ended {ended_block})"
+    );
     assert!(run.keep_alive[rested..].iter().all(|&k| !k), "released once silent");
     assert!(rms(&run.left[rested * BLOCK..]) < 1e-6, "silent after the end");
 
@@ -521,7 +524,9 @@ fn a_notes_brightness_and_its_hammers_modulation_reach_its_strike() {
     // against its 1st, over 0.05-0.35 s.
     let Some(path) = bundle() else { return };
     let loaded = Loaded::new(&path);
-    let strike = |then: Option<&dyn Fn(&[(String, ClapId, f64)]) -> Box<dyn Fn(&mut EventBuffer)>>| {
+    // What follows the note-on in its block, given the parameters' ids.
+    type Then<'a> = &'a dyn Fn(&[(String, ClapId, f64)], &mut EventBuffer);
+    let strike = |then: Then| {
         let mut instance = loaded.instance();
         let ids = param_ids(&mut instance);
         {
@@ -533,28 +538,25 @@ fn a_notes_brightness_and_its_hammers_modulation_reach_its_strike() {
         }
         let mut events = EventBuffer::new();
         events.push(&note_on(5, 48, 1, 0.7));
-        if let Some(then) = then {
-            then(&ids)(&mut events);
-        }
+        then(&ids, &mut events);
         let run = process(&mut instance, &vec![BLOCK; (0.4 * FS) as usize / BLOCK], &vec![(0, events)], Duration::ZERO);
         let x = &run.left[(0.05 * FS) as usize..(0.35 * FS) as usize];
         let c3 = 130.81;
         (10..=12).map(|n| partial_db(x, n as f64 * c3)).sum::<f64>() / 3.0 - partial_db(x, c3)
     };
-    let plain = strike(None);
+    let note = Pckn::new(0u16, 0u16, 48u16, 1u32);
     let brightness = |b: f64| {
-        Box::new(move |events: &mut EventBuffer| {
-            events.push(&NoteExpressionEvent::new(5, Pckn::new(0u16, 0u16, 48u16, 1u32), NoteExpressionType::Brightness, b))
-        }) as Box<dyn Fn(&mut EventBuffer)>
+        move |_: &[(String, ClapId, f64)], events: &mut EventBuffer| {
+            events.push(&NoteExpressionEvent::new(5, note, NoteExpressionType::Brightness, b))
+        }
     };
-    let bright = strike(Some(&|_| brightness(1.0)));
-    let dark = strike(Some(&|_| brightness(0.0)));
-    let modulated = strike(Some(&|ids| {
+    let plain = strike(&|_, _| {});
+    let bright = strike(&brightness(1.0));
+    let dark = strike(&brightness(0.0));
+    let modulated = strike(&|ids, events| {
         let (stiffness, max) = param(ids, "Felt stiffness K");
-        Box::new(move |events: &mut EventBuffer| {
-            events.push(&ParamModEvent::new(5, stiffness, Pckn::new(0u16, 0u16, 48u16, 1u32), 0.5 * max))
-        })
-    }));
+        events.push(&ParamModEvent::new(5, stiffness, note, 0.5 * max))
+    });
     eprintln!(
         "C3's partials 10-12 re its 1st: {plain:.2} dB; brightness 1: {bright:.2}, 0: {dark:.2}; \
          stiffness modulated +0.5: {modulated:.2}"

@@ -46,6 +46,17 @@ impl PluckRig {
         Self { position, drive, plucked: false }
     }
 
+    /// The same tables for plucking at `position` instead, in place.
+    /// Allocates: no.
+    pub fn move_to(&mut self, string: &StringModes, bank: &ModalBank, audio: &StepTable, position: f64) {
+        if position != self.position {
+            let modes = string.modes.len();
+            let shape = |i: usize| string.shape_at(&string.modes[i], position);
+            self.drive.refill(audio, Hold::Linear, bank.weights(), modes, |_| 0.0, shape);
+            self.position = position;
+        }
+    }
+
     /// The plucking point, as a fraction of the length from the bridge.
     pub fn position(&self) -> f64 {
         self.position

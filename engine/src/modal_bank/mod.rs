@@ -214,6 +214,8 @@ impl DriveTable {
 
     /// The same table for other gains and observations (of the first `modes`
     /// modes; the rest stay at rest), in place. Allocates: no.
+    // One index runs over the step's, the weights' and the table's seven arrays.
+    #[allow(clippy::needless_range_loop)]
     pub fn refill(
         &mut self,
         step: &StepTable,

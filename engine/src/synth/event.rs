@@ -33,9 +33,9 @@ pub enum Event {
     /// One key's own output gain (a CLAP note's volume expression), 1 as
     /// built; it glides there over the next stretch and holds until the next.
     KeyVolume { key: u8, gain: f32 },
-    /// One key's own hammer (or mallets) over the instrument's voicing, for
-    /// its next strikes: the felt's stiffness and the strike position as
-    /// factors, 1 as voiced (a CLAP note's brightness expression, the hammer
+    /// One key's own hammer (or mallets, or plectrum) over the instrument's
+    /// voicing, for its next strikes: the felt's stiffness and the strike (or
+    /// plucking) position as factors, 1 as voiced (a CLAP note's brightness expression, the hammer
     /// parameters' polyphonic modulation, MPE timbre). The strike point stays
     /// within 2 % to 50 % of the string. It holds until the next one for the key.
     KeyHammer { key: u8, hardness: f32, position: f32 },

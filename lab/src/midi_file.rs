@@ -32,7 +32,7 @@
 //!   controllers, program changes, SysEx, meta events other than tempo) is ignored.
 //! - events after a track's End of Track are ignored.
 
-use struck_engine::synth::{Event, PressureRouter};
+use struck_engine::synth::{BendRouter, Event, HammerRouter, PressureRouter, cc};
 
 /// A song longer than this (its last event), s, is refused rather than rendered.
 pub const MAX_SONG_S: f64 = 3600.0;
@@ -63,6 +63,10 @@ pub enum MidiError {
 pub struct ReadOptions {
     /// Play channel 10 too (General MIDI drums by default, so ignored).
     pub include_channel_10: bool,
+    /// MPE (its lower zone): channels 2-16 each carry one note, bending it
+    /// over this many semitones each way and setting its timbre (CC74);
+    /// channel 1 bends every note. None: every bend is the pitch wheel.
+    pub mpe_bend_range: Option<f32>,
 }
 
 /// A song as the synth's events.
@@ -98,8 +102,19 @@ enum Timing {
 #[derive(Clone, Copy, Debug)]
 enum Item {
     Tempo(u64),
-    Play { channel: u8, event: Event },
-    ChannelPressure { channel: u8, pressure: f32 },
+    Play {
+        channel: u8,
+        event: Event,
+    },
+    ChannelPressure {
+        channel: u8,
+        pressure: f32,
+    },
+    /// CC74: MPE's timbre on a member channel.
+    Timbre {
+        channel: u8,
+        value: f32,
+    },
 }
 
 /// Read a standard MIDI file's bytes into events at `sample_rate_hz`.
@@ -150,6 +165,10 @@ pub fn read(bytes: &[u8], sample_rate_hz: u32, options: ReadOptions) -> Result<S
     let mut tempo_us = DEFAULT_TEMPO_US;
     let mut last_tick = 0u64;
     let mut pressure = PressureRouter::default();
+    let mut bends = BendRouter::default();
+    bends.set_mpe(options.mpe_bend_range);
+    let mut hammers = HammerRouter::default();
+    hammers.set_mpe(options.mpe_bend_range.is_some());
     // Sum of ticks x tempo in microseconds (metrical), or the tick (timecode).
     let mut elapsed: u128 = 0;
     for (tick, item) in items {
@@ -169,14 +188,24 @@ pub fn read(bytes: &[u8], sample_rate_hz: u32, options: ReadOptions) -> Result<S
         let at = clock.samples(elapsed);
         match item {
             Item::Tempo(_) => {}
-            Item::Play { channel, event } => {
-                events.push((at, event));
-                match event {
-                    Event::NoteOn { key, .. } => events.extend(pressure.note_on(key, channel).map(|e| (at, e))),
-                    Event::NoteOff { key, .. } => pressure.note_off(key),
-                    _ => {}
+            Item::Play { channel, event } => match event {
+                // A note's own bend and hammer go ahead of its strike.
+                Event::NoteOn { key, .. } => {
+                    events.extend(bends.note_on(key, channel).map(|e| (at, e)));
+                    events.extend(hammers.note_on(key, channel).map(|e| (at, e)));
+                    events.push((at, event));
+                    events.extend(pressure.note_on(key, channel).map(|e| (at, e)));
                 }
-            }
+                Event::NoteOff { key, .. } => {
+                    events.push((at, event));
+                    pressure.note_off(key);
+                    bends.note_off(key);
+                    hammers.note_off(key);
+                }
+                Event::PitchBend(value) => bends.pitch_bend(channel, value, |e| events.push((at, e))),
+                _ => events.push((at, event)),
+            },
+            Item::Timbre { channel, value } => hammers.timbre(channel, value, |e| events.push((at, e))),
             Item::ChannelPressure { channel, pressure: p } => {
                 pressure.channel_pressure(channel, p, |e| events.push((at, e)))
             }
@@ -283,7 +312,9 @@ fn read_track(
         match event.kind {
             TrackEventKind::Meta(MetaMessage::EndOfTrack) => break,
             TrackEventKind::Meta(MetaMessage::Tempo(us)) if us.as_int() == 0 => {
-                return Err(MidiError::Malformed(format!("track {number}: a Set Tempo event of 0 microseconds a quarter note")));
+                return Err(MidiError::Malformed(format!(
+                    "track {number}: a Set Tempo event of 0 microseconds a quarter note"
+                )));
             }
             TrackEventKind::Meta(MetaMessage::Tempo(us)) => items.push((tick, Item::Tempo(u64::from(us.as_int())))),
             // midly reads a Set Tempo of fewer than its 3 bytes as an unknown meta event.
@@ -307,6 +338,11 @@ fn read_track(
                 let channel = channel.as_int();
                 if let MidiMessage::ChannelAftertouch { vel } = message {
                     items.push((tick, Item::ChannelPressure { channel, pressure: f32::from(vel.as_int()) / 127.0 }));
+                }
+                if let MidiMessage::Controller { controller, value } = message
+                    && controller.as_int() == cc::TIMBRE
+                {
+                    items.push((tick, Item::Timbre { channel, value: f32::from(value.as_int()) / 127.0 }));
                 }
                 for event in events_of(message) {
                     items.push((tick, Item::Play { channel, event }));

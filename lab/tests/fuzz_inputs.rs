@@ -80,7 +80,7 @@ fn midi_seeds() -> Vec<Vec<u8>> {
 /// A song read, or refused in one line; what is read is in order, within the
 /// longest song, and carries only finite values.
 fn song(bytes: &[u8], sample_rate_hz: u32, include_channel_10: bool) -> Result<(), TestCaseError> {
-    let song = match midi_file::read(bytes, sample_rate_hz, ReadOptions { include_channel_10 }) {
+    let song = match midi_file::read(bytes, sample_rate_hz, ReadOptions { include_channel_10, mpe_bend_range: None }) {
         Ok(song) => song,
         Err(e) => return one_line(&e.to_string()),
     };

@@ -91,7 +91,12 @@ impl TrackBuilder {
 
     /// The pitch wheel on channel 1, 0..=16383 (8192 centred).
     pub fn bend(&mut self, tick: u64, raw: u16) -> &mut Self {
-        self.midi(tick, 0, MidiMessage::PitchBend { bend: PitchBend(u14::new(raw)) })
+        self.channel_bend(tick, 0, raw)
+    }
+
+    /// The pitch wheel on `channel` (0 is channel 1), 0..=16383 (8192 centred).
+    pub fn channel_bend(&mut self, tick: u64, channel: u8, raw: u16) -> &mut Self {
+        self.midi(tick, channel, MidiMessage::PitchBend { bend: PitchBend(u14::new(raw)) })
     }
 
     /// The track as midly events with delta times, ending with End of Track.

@@ -259,6 +259,40 @@ fn pitch_bend_shifts_the_pitch() {
     assert!(cents(f, a_sharp).abs() < 5.0, "bent A4 at {f:.3} Hz, A#4 is {a_sharp:.3} Hz");
 }
 
+/// An MPE song: A3 on channel 2 and E4 on channel 3, channel 2 bent up
+/// 2 semitones of MPE's 48 before its note. With `--mpe` A3 alone moves 200
+/// cents; without, the bend is the wheel (2 semitones of range): both move
+/// 2/48 of 200 cents.
+#[test]
+fn an_mpe_song_bends_its_notes_one_by_one() {
+    let scratch = Scratch::new();
+    let mut track = midi_gen::TrackBuilder::new();
+    let raw = (8192.0 + 8191.0 * 2.0 / 48.0_f64).round() as u16;
+    track
+        .tempo(0, 120.0)
+        .channel_bend(0, 1, raw)
+        .note_on(midi_gen::at_120(0.1), 1, midi_gen::key("A3"), 90)
+        .note_on(midi_gen::at_120(0.1), 2, midi_gen::key("E4"), 90)
+        .note_off(midi_gen::at_120(1.6), 1, midi_gen::key("A3"))
+        .note_off(midi_gen::at_120(1.6), 2, midi_gen::key("E4"));
+    let song = scratch.path("mpe.mid");
+    std::fs::write(&song, midi_gen::smf_bytes(midly::Format::SingleTrack, midi_gen::metrical(), &[track])).unwrap();
+    let (a3, e4) = (220.0, 329.627_557);
+    let mpe = scratch.wav(&song, &["--tail-s", "0", "--mpe"]);
+    let (bent, straight) = (mpe.pitch_hz(0.6, 1.5, a3 * 2f64.powf(2.0 / 12.0)), mpe.pitch_hz(0.6, 1.5, e4));
+    let plain = scratch.wav(&song, &["--tail-s", "0"]);
+    let (a, e) = (plain.pitch_hz(0.6, 1.5, a3), plain.pitch_hz(0.6, 1.5, e4));
+    eprintln!(
+        "--mpe: A3 {:+.1} cents, E4 {:+.1}; without: A3 {:+.1}, E4 {:+.1}",
+        cents(bent, a3),
+        cents(straight, e4),
+        cents(a, a3),
+        cents(e, e4)
+    );
+    assert!((cents(bent, a3) - 200.0).abs() < 5.0 && cents(straight, e4).abs() < 5.0);
+    assert!((cents(a, a3) - 8.3).abs() < 3.0 && (cents(e, e4) - 8.3).abs() < 3.0);
+}
+
 /// --a4 415 moves A4 down to 415 Hz (a semitone, near enough: 100.7 cents).
 #[test]
 fn a4_reference_moves_the_pitch() {
@@ -504,6 +538,7 @@ fn refuses_bad_arguments() {
         (&["--tail-s", "NaN"], "--tail-s"),
         (&["--block-size", "0"], "--block-size"),
         (&["--block-size", "8193"], "--block-size"),
+        (&["--mpe", "97"], "--mpe: the bend range must be from 0 to 96 semitones (got 97)"),
         (&["--instrument", "organ"], "organ"),
         (&["--preset", "no-such-preset.json"], "no-such-preset.json"),
         (&["--a4", "500"], "--a4: must be from 380 to 480 Hz (got 500)"),

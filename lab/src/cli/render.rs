@@ -99,6 +99,11 @@ pub struct RenderArgs {
     /// Play channel 10 too (ignored by default: General MIDI keeps drums there).
     #[arg(long)]
     pub include_channel_10: bool,
+    /// The song is MPE: channels 2-16 bend their own notes over this many
+    /// semitones each way (48 if no number is given) and set their timbre
+    /// (CC74: the felt's hardness); channel 1 bends all
+    #[arg(long, value_name = "SEMITONES", num_args = 0..=1, default_missing_value = "48", allow_negative_numbers = true)]
+    pub mpe: Option<f64>,
     /// Print nothing on success (and show no progress bar).
     #[arg(long, short)]
     pub quiet: bool,
@@ -120,7 +125,8 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
 
     let shown = super::shown(&args.song);
     let bytes = super::input::read(&args.song, super::input::MAX_SONG_BYTES)?;
-    let options = ReadOptions { include_channel_10: args.include_channel_10 };
+    let mpe_bend_range = check_mpe(args.mpe)?;
+    let options = ReadOptions { include_channel_10: args.include_channel_10, mpe_bend_range };
     let song =
         midi_file::read(&bytes, sample_rate_hz, options).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
     let keys = kind.key_range();
@@ -196,7 +202,10 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
     let inputs: Vec<&Path> =
-        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()].into_iter().flatten().collect();
+        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
     let mut staged = Staged::reading(&inputs);
     let written = staged.write(&args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
@@ -313,6 +322,14 @@ fn check_sample_rate(hz: f64) -> Result<u32, Failure> {
         Ok(hz as u32)
     } else {
         Err(Failure::bad_input(format!("--sample-rate: must be a whole number of Hz from {lo} to {hi} (got {hz})")))
+    }
+}
+
+fn check_mpe(range: Option<f64>) -> Result<Option<f32>, Failure> {
+    match range {
+        None => Ok(None),
+        Some(r) if (0.0..=96.0).contains(&r) => Ok(Some(r as f32)),
+        Some(r) => Err(Failure::bad_input(format!("--mpe: the bend range must be from 0 to 96 semitones (got {r})"))),
     }
 }
 

@@ -15,12 +15,12 @@ use num_complex::Complex64;
 use crate::action;
 use crate::body::boards::ZoneShare;
 use crate::body::load::{BoardLoad, trade, unison_step};
-use crate::body::{Bridge, BridgePoint};
+use crate::body::{Bridge, BridgePoint, KeyPan};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, InstrumentKind, KeyDesign, ResistiveBridge, Touch};
-use crate::exciter::hammer::{HammerSpec, Hysteresis};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
+use crate::exciter::hammer::{HammerSpec, Hysteresis};
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{FreeGather, LANES, add_lane_sums};
@@ -279,6 +279,8 @@ pub(crate) struct Key {
     volume: f64,
     volume_to: f64,
     volume_step: f64,
+    /// Its own place in the stereo image ([`Self::set_pan`]).
+    pan: KeyPan,
     /// Its own hammer over the voicing: felt stiffness and strike position
     /// factors ([`Self::set_hammer`]).
     hammer_hardness: f64,
@@ -355,7 +357,7 @@ impl Key {
         }
         let phantom = match (board, design.exciter, modes.get(design.struck.start)) {
             (Some(_), ExciterDesign::Hammer { .. }, Some(lead)) if design.midi_key <= LAST_PHANTOM_KEY => {
-Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).map(Phantom::new)
+                Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).map(Phantom::new)
             }
             _ => None,
         };
@@ -376,8 +378,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last), Some(top_speed_m_s)) =
                 (note.exciter, note.struck.clone().last(), touch.top_speed_m_s())
             {
-                let hammer =
-                    HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position).with_hysteresis(note.hysteresis);
+                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position)
+                    .with_hysteresis(note.hysteresis);
                 note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
             }
         }
@@ -455,6 +457,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             volume: 1.0,
             volume_to: 1.0,
             volume_step: 0.0,
+            pan: KeyPan::default(),
             hammer_hardness: 1.0,
             hammer_position: 1.0,
             bebung_cents: 0.0,
@@ -754,6 +757,22 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
     }
 
+    /// Its own place in the stereo image, -1 (left) ..= 1 (right), 0 where the
+    /// instrument puts it; reached over a control block.
+    pub fn set_pan(&mut self, pan: f64) {
+        if self.is_sounding() { self.pan.set(pan) } else { self.pan.set_now(pan) }
+    }
+
+    /// Back where the instrument puts it, at once.
+    pub fn center(&mut self) {
+        self.pan = KeyPan::default();
+    }
+
+    /// Whether it has a place of its own in the stereo image (or is moving to one).
+    pub fn is_placed(&self) -> bool {
+        self.pan.is_placed()
+    }
+
     /// Its own hammer (or mallets) over the voicing, for its next strikes:
     /// felt stiffness and strike position as factors, 1 as voiced (held to
     /// 1/16 to 16 times). Allocates: no (a strike at a new point rebuilds the
@@ -880,7 +899,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
                     if met < MISSED {
                         continue;
                     }
-                    let felt = ContactLaw { stiffness: law.stiffness * hardness * soft * met / width, exponent: law.exponent };
+                    let felt =
+                        ContactLaw { stiffness: law.stiffness * hardness * soft * met / width, exponent: law.exponent };
                     let hammer = HammerSpec::one_of(1, mass_kg * met / width, felt, touch, position);
                     s.strike_substepped(hammer.with_hysteresis(played.hysteresis), substeps);
                 }
@@ -960,7 +980,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         }
         self.phantom_stale = true;
         self.cull_in = 0;
-        let impulse = self.damper.head_mass_kg() * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
+        let impulse =
+            self.damper.head_mass_kg() * action::DAMPER_LANDING_M_S * velocity.clamp(0.0, 1.0) * self.noise.damper;
         let share = -impulse / self.strings.len().max(1) as f64;
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();
@@ -1075,7 +1096,8 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         // While a string is played its loudest is unknown (infinite): they wait
         // for the strike to end.
         self.phantom_age += 1;
-        let refresh = self.phantom_stale || self.phantom_age >= PHANTOM_REFRESH_BLOCKS || self.phantom_level != self.phantom_set;
+        let refresh =
+            self.phantom_stale || self.phantom_age >= PHANTOM_REFRESH_BLOCKS || self.phantom_level != self.phantom_set;
         if refresh && self.phantom.is_some() {
             // (Read from the strings, and set anew: back from the gathering.)
             self.settle();
@@ -1216,12 +1238,17 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
             self.fade_step = 0.0;
             self.fade = 0.0;
         }
-        bridge.drive(self.bridge_point, scratch);
+        if self.pan.is_placed() {
+            bridge.drive_placed(self.bridge_point, scratch, &mut self.pan);
+        } else {
+            bridge.drive(self.bridge_point, scratch);
+        }
     }
 
     /// Add the key bed's pulse, while it lasts, to `out` (at output gain).
     fn add_key_bed(&mut self, out: &mut [f64]) {
-        let (Some((start, speed)), Some(fs)) = (self.bed_pulse, self.strings.first().map(StruckString::sample_rate_hz)) else {
+        let (Some((start, speed)), Some(fs)) = (self.bed_pulse, self.strings.first().map(StruckString::sample_rate_hz))
+        else {
             return;
         };
         // The key's own volume (a note expression) takes its knock with it.
@@ -1346,6 +1373,7 @@ Some(PhantomTable::new(lead, 0.5 * sample_rate_hz)).filter(|t| !t.is_empty()).ma
         self.pressure_now = old.pressure_now;
         (self.bebung_cents, self.bebung) = (old.bebung_cents, old.bebung);
         (self.hammer_hardness, self.hammer_position) = (old.hammer_hardness, old.hammer_position);
+        self.pan = old.pan;
         self.tune = old.tune;
         (self.volume, self.volume_to, self.volume_step) = (old.volume, old.volume_to, old.volume_step);
         if self.bridge_force_n.len() == old.bridge_force_n.len() {
@@ -1379,7 +1407,11 @@ fn ports(board: &BoardLoad, midi_key: u8, resistive: ResistiveBridge, modes: &[S
             .filter(|&j| (first(&modes[j]) / first(lead) - 1.0).abs() < SAME_PITCH)
             .fold(0u8, |mask, j| mask | (1 << j));
         grouped |= strings as u32;
-        let partials = (0..modes.len().min(8)).filter(|j| strings & (1 << j) != 0).map(|j| modes[j].modes.len()).min().unwrap_or(0);
+        let partials = (0..modes.len().min(8))
+            .filter(|j| strings & (1 << j) != 0)
+            .map(|j| modes[j].modes.len())
+            .min()
+            .unwrap_or(0);
         let reach = board.reach(resistive, lead);
         let eps = board.coupling(midi_key, resistive, lead);
         for (n, mode) in lead.modes.iter().enumerate().take(partials) {

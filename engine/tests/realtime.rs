@@ -165,7 +165,7 @@ fn random_event(rng: &mut Rng) -> Event {
         5..=7 => Event::NoteOff { key, velocity: level(rng) },
         8 => Event::Sustain(level(rng)),
         9 => Event::PitchBend([-1.0, 1.0, 2.0 * rng.unit_f32() - 1.0][rng.below(3) as usize]),
-        _ => match rng.below(9) {
+        _ => match rng.below(10) {
             0 => Event::Sostenuto(level(rng)),
             1 => Event::UnaCorda(level(rng)),
             2 => Event::ModWheel(level(rng)),
@@ -177,6 +177,7 @@ fn random_event(rng: &mut Rng) -> Event {
             }
             6 => Event::KeyVolume { key, gain: 2.0 * level(rng) },
             7 => Event::KeyBend { key, semitones: 48.0 * (2.0 * rng.unit_f32() - 1.0) },
+            8 => Event::KeyPan { key, pan: [-1.0, 1.0, 2.0 * rng.unit_f32() - 1.0][rng.below(3) as usize] },
             _ => Event::Reset,
         },
     }

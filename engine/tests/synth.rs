@@ -109,6 +109,7 @@ fn session() -> Vec<(f64, Event)> {
         (0.2003, Event::KeyVolume { key: 64, gain: 0.4 }),
         (0.2051, Event::KeyBend { key: 64, semitones: 0.7 }),
         (0.209, Event::KeyHammer { key: 60, hardness: 1.5, position: 0.7 }),
+        (0.2093, Event::KeyPan { key: 64, pan: -0.6 }),
         (0.21, Event::NoteOn { key: 60, velocity: 1.0 }),
         (0.25, Event::NoteOff { key: 64, velocity: 0.5 }),
         (0.3, Event::Sustain(0.4)),
@@ -203,8 +204,10 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
         render(&mut s, 0.6, &events, 256)
     };
     let (as_built, moved) = (pluck(None), pluck(Some((0.25 / pluck_point) as f32)));
-    let (before, after) =
-        (partial_db(&as_built, d3, 4) - partial_db(&as_built, d3, 1), partial_db(&moved, d3, 4) - partial_db(&moved, d3, 1));
+    let (before, after) = (
+        partial_db(&as_built, d3, 4) - partial_db(&as_built, d3, 1),
+        partial_db(&moved, d3, 4) - partial_db(&moved, d3, 1),
+    );
     println!("D3 plucked at 1/4 (built at {pluck_point:.4}): partial 4 re the 1st {before:.1} -> {after:.1} dB");
     assert!(after < before - 15.0, "the plectrum did not move: {before:.1} -> {after:.1} dB");
     // Back to 1: as voiced, bit for bit.
@@ -216,6 +219,87 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
     ];
     let back = render(&mut s, 0.6, &events, 256);
     assert!(back.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
+}
+
+/// Both channels of a render, as built (the `render` helper mixes them).
+fn render_stereo(synth: &mut Synth, seconds: f64, events: &[(f64, Event)]) -> (Vec<f32>, Vec<f32>) {
+    let total = (seconds * FS) as usize;
+    let (mut left, mut right) = (vec![0.0f32; total], vec![0.0f32; total]);
+    let mut start = 0;
+    while start < total {
+        let end = (start + 256).min(total);
+        let due: Vec<TimedEvent> = events
+            .iter()
+            .map(|&(t, e)| ((t * FS).round() as usize, e))
+            .filter(|(t, _)| (start..end).contains(t))
+            .map(|(t, e)| TimedEvent::new((t - start) as u32, e))
+            .collect();
+        synth.process(&due, &mut left[start..end], &mut right[start..end]);
+        start = end;
+    }
+    (left, right)
+}
+
+#[test]
+fn a_key_placed_in_the_stereo_image_is_heard_there() {
+    // C4 through the microphones: placed hard left, the right microphone hears
+    // nothing of it and the left 3 dB more; at 0.5 right, the right side gains
+    // and the left loses as a constant-power pan has it; in the middle,
+    // exactly as built. E4 beside it stays where it was.
+    let mics_with = |pan: Option<f32>, sympathy: f64| {
+        let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS);
+        let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+        s.set_controls(Controls { sympathy, ..Controls::default() });
+        let mut events = vec![];
+        if let Some(pan) = pan {
+            events.push((0.0, Event::KeyPan { key: 60, pan }));
+        }
+        events.push((0.0, Event::NoteOn { key: 60, velocity: 0.7 }));
+        render_stereo(&mut s, 1.0, &events)
+    };
+    let mics = |pan: Option<f32>| mics_with(pan, 1.0);
+    let db = |x: &[f32]| 10.0 * (x.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() + 1e-300).log10();
+    let (l, r) = mics(None);
+    let (l0, r0) = mics(Some(0.0));
+    assert!(l.iter().zip(&l0).chain(r.iter().zip(&r0)).all(|(a, b)| a.to_bits() == b.to_bits()), "the middle moved");
+    let (hl, hr) = mics(Some(-1.0));
+    // What the right microphone hears is the undamped treble's answer, where
+    // the instrument has those strings; without sympathy, nothing.
+    println!("C4 hard left: right {:.1} dB re its left (the treble's answer)", db(&hr) - db(&hl));
+    assert!(db(&hr) < db(&hl) - 40.0, "the right microphone hears a key placed hard left");
+    let (_, alone) = mics_with(Some(-1.0), 0.0);
+    assert!(alone.iter().all(|&v| v == 0.0), "without sympathy the right microphone hears nothing");
+    let (pl, pr) = mics(Some(0.5));
+    let angle = 1.5 * std::f64::consts::FRAC_PI_4;
+    let (gl, gr) = (
+        20.0 * (angle.cos() * std::f64::consts::SQRT_2).log10(),
+        20.0 * (angle.sin() * std::f64::consts::SQRT_2).log10(),
+    );
+    println!(
+        "C4 hard left: left {:+.2} dB; at 0.5 right: left {:+.2} dB (expected {gl:+.2}), right {:+.2} dB (expected {gr:+.2})",
+        db(&hl) - db(&l),
+        db(&pl) - db(&l),
+        db(&pr) - db(&r)
+    );
+    assert!((db(&hl) - db(&l) - 3.01).abs() < 0.05);
+    assert!((db(&pl) - db(&l) - gl).abs() < 0.05 && (db(&pr) - db(&r) - gr).abs() < 0.05);
+    // Moved while it rings: no click, and the body runs once per microphone
+    // until it rests.
+    let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS);
+    let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+    let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.7 }), (0.5, Event::KeyPan { key: 60, pan: 1.0 })];
+    let (ml, mr) = render_stereo(&mut s, 1.0, &events);
+    let i = (0.5 * FS) as usize;
+    let steps = |x: &[f32], a: usize, b: usize| x[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
+    // Against the key left in the middle over the same 50 ms, the right side
+    // at most its new gain (sqrt 2) times, the left no more than before.
+    let (after_l, after_r) =
+        (steps(&ml, i, i + 2400) / steps(&l, i, i + 2400), steps(&mr, i, i + 2400) / steps(&r, i, i + 2400));
+    println!(
+        "moved hard right at 0.5 s: largest sample step against the middle's: left {after_l:.3}, right {after_r:.3}"
+    );
+    assert!(after_l <= 1.05 && after_r <= 1.05 * std::f64::consts::SQRT_2 as f32, "a click where the key moved");
+    assert!(db(&ml[i + 4800..]) < db(&l[i + 4800..]) - 20.0, "the left still hears a key placed hard right");
 }
 
 #[test]

@@ -98,6 +98,7 @@ fn song(bytes: &[u8], sample_rate_hz: u32, include_channel_10: bool) -> Result<(
             Event::KeyBend { key, semitones } => (key, [semitones.abs() / 96.0, 0.0]),
             Event::KeyVolume { key, gain } => (key, [gain / 16.0, 0.0]),
             Event::KeyHammer { key, hardness, position } => (key, [hardness / 16.0, position / 16.0]),
+            Event::KeyPan { key, pan } => (key, [pan.abs(), 0.0]),
             Event::AllNotesOff | Event::Reset => (0, [0.0, 0.0]),
         };
         prop_assert!(key < 128 && values.iter().all(|v| (0.0..=1.0).contains(v)), "{event:?}");

@@ -42,8 +42,10 @@ pub struct Performer {
     /// strike position (normalized offsets), and the parameters they offset.
     poly_offsets: [(f32, f32); 128],
     params: Option<Arc<StruckParams>>,
-    /// Keys whose volume a CLAP note's expression moved (set back at their next note-on).
+    /// Keys whose volume or place a CLAP note's expression moved (set back at
+    /// their next note-on).
     voiced: [bool; 128],
+    placed: [bool; 128],
     /// Per channel, the low 7 bits a high-resolution velocity prefix (CC 88)
     /// gave the next note-on.
     velocity_low: [Option<u8>; 16],
@@ -68,6 +70,7 @@ impl Performer {
             poly_offsets: [(0.0, 0.0); 128],
             params: None,
             voiced: [false; 128],
+            placed: [false; 128],
             velocity_low: [None; 16],
             reset_pending: false,
             keyboard: Arc::new(KeyboardLink::default()),
@@ -177,6 +180,9 @@ impl Performer {
                 if std::mem::take(&mut self.voiced[key as usize]) {
                     push(Event::KeyVolume { key, gain: 1.0 });
                 }
+                if std::mem::take(&mut self.placed[key as usize]) {
+                    push(Event::KeyPan { key, pan: 0.0 });
+                }
                 self.poly_offsets[key as usize] = (0.0, 0.0);
                 self.hammers.note_on(key, channel).into_iter().for_each(&mut push);
                 push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
@@ -226,6 +232,11 @@ impl Performer {
             NoteEvent::PolyTuning { key: Key::Number(key), tuning, .. } if key < 128 => {
                 push(self.bends.key_tuning(key, tuning))
             }
+            // A CLAP note's pan expression: its place in the stereo image.
+            NoteEvent::PolyPan { key: Key::Number(key), pan, .. } if key < 128 => {
+                self.placed[key as usize] = pan != 0.0;
+                self.push_before_strike(time, Event::KeyPan { key, pan });
+            }
             // A CLAP note's brightness expression: its hammer's hardness.
             NoteEvent::PolyBrightness { key: Key::Number(key), brightness, .. } if key < 128 => {
                 if let Some(e) = self.hammers.brightness(key, brightness) {
@@ -252,12 +263,12 @@ impl Performer {
 }
 
 impl Performer {
-    /// Push `event` (a key's own hammer) at `time`, ahead of that key's strike
-    /// if it was struck at the same sample: a CLAP host sends a note's
-    /// expressions and modulation just after its note-on, and they shape that
-    /// note's own strike.
+    /// Push `event` (a key's own hammer or place) at `time`, ahead of that
+    /// key's strike if it was struck at the same sample: a CLAP host sends a
+    /// note's expressions and modulation just after its note-on, and they
+    /// shape that note from its strike.
     fn push_before_strike(&mut self, time: u32, event: Event) {
-        let Event::KeyHammer { key, .. } = event else { return };
+        let (Event::KeyHammer { key, .. } | Event::KeyPan { key, .. }) = event else { return };
         let same_time = self.events.iter().rev().take_while(|e| e.time == time).count();
         let at = self.events[self.events.len() - same_time..]
             .iter()

@@ -568,6 +568,35 @@ fn a_notes_brightness_and_its_hammers_modulation_reach_its_strike() {
 }
 
 #[test]
+fn a_notes_pan_expression_places_it_in_the_stereo_image() {
+    // C4 with note id 1 and, just after its note-on, a pan expression: CLAP's
+    // 0 is hard left, 1 hard right. Through the microphones, a note placed
+    // hard left reaches the right channel only as the undamped treble's
+    // answer, placed where the instrument has it.
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let play = |pan: Option<f64>| {
+        let mut instance = loaded.instance();
+        let mut events = EventBuffer::new();
+        events.push(&note_on(5, 60, 1, 0.7));
+        if let Some(pan) = pan {
+            events.push(&NoteExpressionEvent::new(5, Pckn::new(0u16, 0u16, 60u16, 1u32), NoteExpressionType::Pan, pan));
+        }
+        let run = process(&mut instance, &vec![BLOCK; (0.6 * FS) as usize / BLOCK], &vec![(0, events)], Duration::ZERO);
+        let db = |x: &[f32]| 20.0 * rms(x).max(1e-30).log10();
+        (db(&run.left), db(&run.right))
+    };
+    let (l, r) = play(None);
+    let (hl, hr) = play(Some(0.0));
+    let (rl, rr) = play(Some(1.0));
+    eprintln!(
+        "C4 in the middle: left {l:.1} dB, right {r:.1}; pan 0 (left): {hl:.1}, {hr:.1}; pan 1 (right): {rl:.1}, {rr:.1}"
+    );
+    assert!((hl - l - 3.0).abs() < 0.5 && hr < hl - 40.0, "hard left");
+    assert!((rr - r - 3.0).abs() < 0.5 && rl < rr - 40.0, "hard right");
+}
+
+#[test]
 fn a_host_that_renders_faster_than_real_time_without_saying_so_gets_the_same() {
     // Ardour's export tells each block it is offline, which the wrapper does
     // not pass on: the plugin sees the host asking for audio many times faster

@@ -199,11 +199,7 @@ impl BodyDesign {
     /// of another course (the dulcimer's G#5-D6) takes that course's point.
     pub fn bridge_point(&self, midi_key: u8) -> (f64, f64) {
         let key = self.bridge_key(midi_key);
-        self.bridges
-            .iter()
-            .find(|b| b.keys.contains(&key))
-            .or(self.bridges.last())
-            .map_or((0.5, 0.5), |b| b.point(key))
+        self.bridges.iter().find(|b| b.keys.contains(&key)).or(self.bridges.last()).map_or((0.5, 0.5), |b| b.point(key))
     }
 
     /// The bridge line `midi_key`'s strings bear on.
@@ -297,7 +293,10 @@ impl BodyDesign {
     /// ends, and two more between them on a bridge of 24 keys or more (in key
     /// order along the bridge), at most [`MAX_ZONES`].
     pub fn zone_points(&self) -> Vec<(f64, f64)> {
-        self.bridges.iter().flat_map(|b| zone_fractions(b).iter().map(|&t| along_polyline(b.points, t)).collect::<Vec<_>>()).collect()
+        self.bridges
+            .iter()
+            .flat_map(|b| zone_fractions(b).iter().map(|&t| along_polyline(b.points, t)).collect::<Vec<_>>())
+            .collect()
     }
 
     /// Which two zones `midi_key`'s strings bear between, and the share of the
@@ -389,7 +388,13 @@ fn piano_grand() -> BodyDesign {
         width_m: 1.05,
         thickness_m: 0.009,
         wood: SPRUCE,
-        ribs: Some(Ribs { spacing_m: 0.13, width_m: 0.028, depth_m: 0.024, e_pa: SPRUCE.e_along_pa, density_kg_m3: 420.0 }),
+        ribs: Some(Ribs {
+            spacing_m: 0.13,
+            width_m: 0.028,
+            depth_m: 0.024,
+            e_pa: SPRUCE.e_along_pa,
+            density_kg_m3: 420.0,
+        }),
         boundary: Boundary::Clamped,
         loss_factor: BOARD_LOSS_FACTOR,
         bridge_mass_kg: 1.5,
@@ -423,7 +428,13 @@ fn fortepiano() -> BodyDesign {
         width_m: 0.7,
         thickness_m: 0.0035,
         wood: SPRUCE,
-        ribs: Some(Ribs { spacing_m: 0.2, width_m: 0.012, depth_m: 0.010, e_pa: SPRUCE.e_along_pa, density_kg_m3: 420.0 }),
+        ribs: Some(Ribs {
+            spacing_m: 0.2,
+            width_m: 0.012,
+            depth_m: 0.010,
+            e_pa: SPRUCE.e_along_pa,
+            density_kg_m3: 420.0,
+        }),
         boundary: Boundary::Clamped,
         loss_factor: BOARD_LOSS_FACTOR,
         bridge_mass_kg: 0.4,
@@ -489,7 +500,13 @@ fn harpsichord() -> BodyDesign {
         width_m: 0.55,
         thickness_m: 0.003,
         wood: SPRUCE,
-        ribs: Some(Ribs { spacing_m: 0.2, width_m: 0.010, depth_m: 0.012, e_pa: SPRUCE.e_along_pa, density_kg_m3: 420.0 }),
+        ribs: Some(Ribs {
+            spacing_m: 0.2,
+            width_m: 0.010,
+            depth_m: 0.012,
+            e_pa: SPRUCE.e_along_pa,
+            density_kg_m3: 420.0,
+        }),
         boundary: Boundary::Clamped,
         loss_factor: BOARD_LOSS_FACTOR,
         bridge_mass_kg: 0.2,
@@ -501,11 +518,7 @@ fn harpsichord() -> BodyDesign {
         keys: 36..=86,
         bridges: vec![BridgeLine { keys: 36..=86, points: &[(0.88, 0.80), (0.55, 0.50), (0.12, 0.22)] }],
         bridge_kind: Bridges::Continuous { width_m: 0.010, height_m: 0.014 },
-        first_mode_range_hz: (
-            20.0,
-            150.0,
-            "no measurement found; a long, thin (3 mm) unribbed board: low first mode",
-        ),
+        first_mode_range_hz: (20.0, 150.0, "no measurement found; a long, thin (3 mm) unribbed board: low first mode"),
     }
 }
 
@@ -537,11 +550,7 @@ fn santoor() -> BodyDesign {
             BridgeLine { keys: 71..=89, points: &[(0.30, 0.88), (0.30, 0.12)] },
         ],
         bridge_kind: Bridges::Separate,
-        first_mode_range_hz: (
-            80.0,
-            500.0,
-            "no measurement found; a 0.23 m^2, 6 mm hardwood top: a few hundred Hz",
-        ),
+        first_mode_range_hz: (80.0, 500.0, "no measurement found; a 0.23 m^2, 6 mm hardwood top: a few hundred Hz"),
     }
 }
 
@@ -573,11 +582,7 @@ fn dulcimer() -> BodyDesign {
             BridgeLine { keys: 62..=79, points: &[(0.40, 0.90), (0.40, 0.10)] },
         ],
         bridge_kind: Bridges::Continuous { width_m: 0.013, height_m: 0.019 },
-        first_mode_range_hz: (
-            60.0,
-            400.0,
-            "no measurement found; a 0.34 m^2, 6.4 mm spruce top clamped to the rim",
-        ),
+        first_mode_range_hz: (60.0, 400.0, "no measurement found; a 0.34 m^2, 6.4 mm spruce top clamped to the rim"),
     }
 }
 
@@ -594,7 +599,13 @@ fn cimbalom() -> BodyDesign {
         width_m: 0.7,
         thickness_m: 0.008,
         wood: SPRUCE,
-        ribs: Some(Ribs { spacing_m: 0.15, width_m: 0.020, depth_m: 0.015, e_pa: SPRUCE.e_along_pa, density_kg_m3: 420.0 }),
+        ribs: Some(Ribs {
+            spacing_m: 0.15,
+            width_m: 0.020,
+            depth_m: 0.015,
+            e_pa: SPRUCE.e_along_pa,
+            density_kg_m3: 420.0,
+        }),
         boundary: Boundary::Clamped,
         loss_factor: BOARD_LOSS_FACTOR,
         bridge_mass_kg: 0.8,
@@ -654,7 +665,8 @@ mod tests {
                 assert_eq!(share.zones[1], share.zones[0] + 1, "{i:?} {key}");
                 // The share's point lies on the segment between its zones, near the key's own.
                 let (a, b) = (zones[share.zones[0]], zones[share.zones[1]]);
-                let mix = (a.0 * share.weights[0] + b.0 * share.weights[1], a.1 * share.weights[0] + b.1 * share.weights[1]);
+                let mix =
+                    (a.0 * share.weights[0] + b.0 * share.weights[1], a.1 * share.weights[0] + b.1 * share.weights[1]);
                 let own = d.bridge_point(key);
                 assert!((mix.0 - own.0).hypot(mix.1 - own.1) < 0.15, "{i:?} {key}: {mix:?} against {own:?}");
             }
@@ -671,7 +683,9 @@ mod tests {
         assert!((0.0075..0.0125).contains(&density), "{density}");
         assert!(running.len() < all.len() / 2, "{} of {}", running.len(), all.len());
         // Sum of 1/m per hertz above the split: the mean mobility's measure.
-        let weight = |list: &[BodyMode]| list.iter().filter(|m| m.frequency_hz > split).map(|m| 1.0 / m.modal_mass_kg).sum::<f64>();
+        let weight = |list: &[BodyMode]| {
+            list.iter().filter(|m| m.frequency_hz > split).map(|m| 1.0 / m.modal_mass_kg).sum::<f64>()
+        };
         assert!((weight(&running) / weight(&all) - 1.0).abs() < 0.05);
     }
 
@@ -682,7 +696,12 @@ mod tests {
         let (f, g) = (built.modes(1000.0), larger.modes(1000.0));
         // Frequencies go as 1 / size^2 for the same wood and thickness (the bridges'
         // mass grows as the area, so as the board's).
-        assert!((g[0].frequency_hz / f[0].frequency_hz - 1.0 / 1.5625).abs() < 0.02, "{} {}", f[0].frequency_hz, g[0].frequency_hz);
+        assert!(
+            (g[0].frequency_hz / f[0].frequency_hz - 1.0 / 1.5625).abs() < 0.02,
+            "{} {}",
+            f[0].frequency_hz,
+            g[0].frequency_hz
+        );
         assert!(g.len() > f.len());
         assert_eq!(design(InstrumentKind::Piano).scaled(1.0), built);
     }

@@ -62,30 +62,108 @@ impl BridgePoint {
 
 /// What every sounding key drives during one stretch of at most a control
 /// block: the force on each of the body's zones, and the panned bridge force.
+/// When some key is placed in the stereo image of its own (a note's pan), the
+/// zones are summed twice, once as each microphone is to hear them (`split`).
 /// Real-time safe.
 pub struct Bridge {
     out: [[f64; CONTROL_BLOCK]; 2],
     zones: [[f64; CONTROL_BLOCK]; MAX_ZONES],
+    /// The zones as the right microphone hears them, while split.
+    zones_right: Box<[[f64; CONTROL_BLOCK]; MAX_ZONES]>,
     len: usize,
     /// Whether the panned bridge force is heard this stretch (else only the zones are summed).
     panned: bool,
+    split: bool,
 }
 
 impl Default for Bridge {
     fn default() -> Self {
-        Self { out: [[0.0; CONTROL_BLOCK]; 2], zones: [[0.0; CONTROL_BLOCK]; MAX_ZONES], len: 0, panned: true }
+        Self {
+            out: [[0.0; CONTROL_BLOCK]; 2],
+            zones: [[0.0; CONTROL_BLOCK]; MAX_ZONES],
+            zones_right: Box::new([[0.0; CONTROL_BLOCK]; MAX_ZONES]),
+            len: 0,
+            panned: true,
+            split: false,
+        }
+    }
+}
+
+/// A key's own place in the stereo image (a note's pan expression): a gain on
+/// each side, constant power, 1 and 1 in the middle, reached in even steps
+/// over a control block's samples (however the blocks are cut).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KeyPan {
+    gains: [f64; 2],
+    to: [f64; 2],
+    step: [f64; 2],
+    /// Samples left to glide.
+    left: usize,
+}
+
+impl Default for KeyPan {
+    fn default() -> Self {
+        Self { gains: [1.0; 2], to: [1.0; 2], step: [0.0; 2], left: 0 }
+    }
+}
+
+impl KeyPan {
+    /// Move to `pan`, -1 (left) ..= 1 (right), over the next control block.
+    pub fn set(&mut self, pan: f64) {
+        let pan = if pan.is_finite() { pan.clamp(-1.0, 1.0) } else { 0.0 };
+        let point = BridgePoint::panned(pan);
+        self.to = [point.left, point.right];
+        if pan == 0.0 {
+            // Exactly as built in the middle.
+            self.to = [1.0, 1.0];
+        }
+        self.step = [0, 1].map(|c| (self.to[c] - self.gains[c]) / CONTROL_BLOCK as f64);
+        self.left = CONTROL_BLOCK;
+    }
+
+    /// At `pan` at once (a key that is not sounding has nothing to glide).
+    pub fn set_now(&mut self, pan: f64) {
+        self.set(pan);
+        self.gains = self.to;
+        self.left = 0;
+    }
+
+    /// Whether it is other than the middle, or moving.
+    pub fn is_placed(&self) -> bool {
+        self.gains != [1.0, 1.0] || self.to != [1.0, 1.0]
+    }
+
+    /// The gains for the next sample.
+    fn next(&mut self) -> [f64; 2] {
+        if self.left > 0 {
+            self.left -= 1;
+            self.gains = if self.left == 0 { self.to } else { [0, 1].map(|c| self.gains[c] + self.step[c]) };
+        }
+        self.gains
     }
 }
 
 impl Bridge {
     /// Begin a stretch of `len` samples (at most a control block) with nothing
-    /// driving, the panned bridge force summed only if `panned` (the zones always).
-    pub fn start(&mut self, len: usize, panned: bool) {
+    /// driving, the panned bridge force summed only if `panned` (the zones
+    /// always; twice, one sum per microphone, if `split`).
+    pub fn start(&mut self, len: usize, panned: bool, split: bool) {
         self.len = len.min(CONTROL_BLOCK);
         self.panned = panned;
+        self.split = split;
         for channel in self.out.iter_mut().chain(self.zones.iter_mut()) {
             channel[..self.len].fill(0.0);
         }
+        if split {
+            for channel in self.zones_right.iter_mut() {
+                channel[..self.len].fill(0.0);
+            }
+        }
+    }
+
+    /// Whether the zones are summed per microphone this stretch.
+    pub fn is_split(&self) -> bool {
+        self.split
     }
 
     /// The stretch's length.
@@ -113,8 +191,42 @@ impl Bridge {
                 for (z, f) in self.zones[zone][..self.len].iter_mut().zip(force) {
                     *z += f * weight;
                 }
+                if self.split {
+                    for (z, f) in self.zones_right[zone][..self.len].iter_mut().zip(force) {
+                        *z += f * weight;
+                    }
+                }
             }
         }
+    }
+
+    /// A key placed at `pan` in the stereo image pushes with `force` at `at`:
+    /// each side hears it at its own gain. Without a split stretch both sides
+    /// hear their mean (the body is not yet run twice).
+    pub fn drive_placed(&mut self, at: BridgePoint, force: &[f64], pan: &mut KeyPan) {
+        for (t, f) in force[..self.len].iter().enumerate() {
+            let [gl, gr] = pan.next();
+            if self.panned {
+                self.out[0][t] += f * at.left * gl;
+                self.out[1][t] += f * at.right * gr;
+            }
+            for (zone, weight) in at.zones.zones.into_iter().zip(at.zones.weights) {
+                if weight != 0.0 {
+                    if self.split {
+                        self.zones[zone][t] += f * weight * gl;
+                        self.zones_right[zone][t] += f * weight * gr;
+                    } else {
+                        self.zones[zone][t] += f * weight * 0.5 * (gl + gr);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The stretch's force on each zone as the right microphone hears it
+    /// (the same as [`Self::zone_forces`] unless split).
+    pub fn zone_forces_right(&self) -> &[[f64; CONTROL_BLOCK]; MAX_ZONES] {
+        if self.split { &self.zones_right } else { &self.zones }
     }
 
     /// The stretch's force on each zone.
@@ -136,12 +248,12 @@ mod tests {
     #[test]
     fn a_centred_point_sounds_equally_in_both_channels_and_the_sides_in_one() {
         let mut bridge = Bridge::default();
-        bridge.start(4, true);
+        bridge.start(4, true, false);
         bridge.drive(BridgePoint::panned(0.0), &[1.0, 2.0, 0.0, -1.0]);
         let (l, r) = bridge.panned();
         assert!(l.iter().zip(r).all(|(l, r)| (l - r).abs() < 1e-12), "{l:?} {r:?}");
         assert!((l[1] - 2.0).abs() < 1e-12, "{l:?}");
-        bridge.start(2, true);
+        bridge.start(2, true, false);
         bridge.drive(BridgePoint::panned(-1.0), &[1.0, 1.0]);
         bridge.drive(BridgePoint::panned(1.0), &[0.5, 0.5]);
         let (l, r) = bridge.panned();
@@ -151,9 +263,34 @@ mod tests {
     }
 
     #[test]
+    fn a_placed_key_is_heard_by_each_side_at_its_gain() {
+        let mut bridge = Bridge::default();
+        let point = BridgePoint::panned(0.0).on_zones(ZoneShare { zones: [1, 1], weights: [1.0, 0.0] });
+        let mut pan = KeyPan::default();
+        assert!(!pan.is_placed());
+        pan.set(-1.0);
+        assert!(pan.is_placed());
+        // Over a control block it glides to hard left, then holds.
+        bridge.start(CONTROL_BLOCK, true, true);
+        bridge.drive_placed(point, &[1.0; CONTROL_BLOCK], &mut pan);
+        bridge.start(2, true, true);
+        bridge.drive_placed(point, &[1.0, 1.0], &mut pan);
+        bridge.drive(point, &[0.5, 0.5]);
+        let (l, r) = bridge.panned();
+        assert!((l[0] - std::f64::consts::SQRT_2 - 0.5).abs() < 1e-12 && (r[0] - 0.5).abs() < 1e-12, "{l:?} {r:?}");
+        assert!((bridge.zone_forces()[1][0] - std::f64::consts::SQRT_2 - 0.5).abs() < 1e-12);
+        assert!((bridge.zone_forces_right()[1][0] - 0.5).abs() < 1e-12);
+        // Back to the middle: exactly as built.
+        pan.set(0.0);
+        bridge.start(CONTROL_BLOCK, true, true);
+        bridge.drive_placed(point, &[1.0; CONTROL_BLOCK], &mut pan);
+        assert!(!pan.is_placed());
+    }
+
+    #[test]
     fn a_key_between_two_zones_shares_its_force_between_them() {
         let mut bridge = Bridge::default();
-        bridge.start(3, true);
+        bridge.start(3, true, false);
         let point = BridgePoint::panned(0.0).on_zones(ZoneShare { zones: [2, 3], weights: [0.25, 0.75] });
         bridge.drive(point, &[4.0, 0.0, -8.0]);
         let zones = bridge.zone_forces();

@@ -710,7 +710,8 @@ mod tests {
         let across: Vec<(f64, f64)> = (0..20).map(|i| (0.05 * i as f64, 0.3 * (0.7 * i as f64).sin())).collect();
         for f in [150.0, 700.0, 1500.0, 4000.0] {
             if let Some(wave) = beam_wave(&plate, ei, rho_a, f) {
-                let m: Vec<Vec<f64>> = along.iter().map(|x| along.iter().map(|y| wave.transfer(x - y).re).collect()).collect();
+                let m: Vec<Vec<f64>> =
+                    along.iter().map(|x| along.iter().map(|y| wave.transfer(x - y).re).collect()).collect();
                 assert!(semi_definite(&m, 1e-9), "{f} Hz along the bridge");
             }
             let m: Vec<Vec<f64>> = across

@@ -142,6 +142,13 @@ pub struct Soundboard {
     gain: f64,
     acc: Box<[[[f64; LANES]; CONTROL_BLOCK]; 2]>,
     modes: usize,
+    /// Split: the modes as the right microphone hears them (some key placed in
+    /// the stereo image of its own), run beside `re`/`im` (the left's) until
+    /// both rest; and a second pair of accumulators for that run.
+    split: bool,
+    right_re: Vec<[f64; LANES]>,
+    right_im: Vec<[f64; LANES]>,
+    spare: Box<[[[f64; LANES]; CONTROL_BLOCK]; 2]>,
 }
 
 /// A body mode with everything per zone and per microphone worked out.
@@ -192,6 +199,10 @@ impl Soundboard {
             gain,
             acc: Box::new([[[0.0; LANES]; CONTROL_BLOCK]; 2]),
             modes: planned.len(),
+            split: false,
+            right_re: vec![[0.0; LANES]; groups],
+            right_im: vec![[0.0; LANES]; groups],
+            spare: Box::new([[[0.0; LANES]; CONTROL_BLOCK]; 2]),
         };
         for (i, mode) in planned.iter().enumerate() {
             let (g, l) = (i / LANES, i % LANES);
@@ -234,6 +245,9 @@ impl Soundboard {
         if old.re.len() == self.re.len() && old.modes == self.modes {
             self.re.copy_from_slice(&old.re);
             self.im.copy_from_slice(&old.im);
+            self.right_re.copy_from_slice(&old.right_re);
+            self.right_im.copy_from_slice(&old.right_im);
+            self.split = old.split;
             self.resting = old.resting;
         }
     }
@@ -277,9 +291,18 @@ impl Soundboard {
         power
     }
 
+    /// Whether it runs once per microphone (see [`Self::process_split`]).
+    pub fn is_split(&self) -> bool {
+        self.split
+    }
+
     /// Every mode at rest.
     pub fn silence(&mut self) {
         self.re.iter_mut().chain(self.im.iter_mut()).for_each(|g| *g = [0.0; LANES]);
+        if self.split {
+            self.right_re.iter_mut().chain(self.right_im.iter_mut()).for_each(|g| *g = [0.0; LANES]);
+            self.split = false;
+        }
         self.resting = true;
         self.fade = 1.0;
         self.fade_step = 0.0;
@@ -289,6 +312,10 @@ impl Soundboard {
     /// `forces[z][t]` (already at output gain), writing the microphones' signals.
     /// Real-time safe.
     pub fn process(&mut self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], left: &mut [f64], right: &mut [f64]) {
+        if self.split {
+            self.process_split(forces, forces, left, right);
+            return;
+        }
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
         // Only the zones some key pushes on in this stretch.
         let mut active = [0usize; MAX_ZONES];
@@ -394,6 +421,110 @@ fn plan(
         }
     }
     PlannedMode { pole, held, shape, out, direct }
+}
+
+impl Soundboard {
+    /// [`Self::process`] with each microphone hearing the zones' forces as it
+    /// is to (`left_forces`, `right_forces`: some key placed in the stereo
+    /// image of its own): the modes run twice, once per microphone, from the
+    /// state they shared when the split began, until both rest. Real-time safe.
+    pub fn process_split(
+        &mut self,
+        left_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        right_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        left: &mut [f64],
+        right: &mut [f64],
+    ) {
+        let n = left.len().min(right.len()).min(CONTROL_BLOCK);
+        let active_of = |forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES]| {
+            let mut active = [0usize; MAX_ZONES];
+            let mut count = 0;
+            for (z, f) in forces[..self.zones].iter().enumerate() {
+                if f[..n].iter().any(|&v| v != 0.0) {
+                    active[count] = z;
+                    count += 1;
+                }
+            }
+            (active, count)
+        };
+        let ((active_l, count_l), (active_r, count_r)) = (active_of(left_forces), active_of(right_forces));
+        let pushed = count_l + count_r > 0;
+        if !pushed && self.resting {
+            left[..n].fill(0.0);
+            right[..n].fill(0.0);
+            return;
+        }
+        if !self.split {
+            // The right microphone's modes start where the shared ones are.
+            self.right_re.copy_from_slice(&self.re);
+            self.right_im.copy_from_slice(&self.im);
+            self.split = true;
+        }
+        let [[lr, li], [rr, ri]] = &self.out;
+        for (side, forces, active, count) in
+            [(0, left_forces, &active_l, count_l), (1, right_forces, &active_r, count_r)]
+        {
+            let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+            for (push, &z) in pushes.iter_mut().zip(&active[..count]) {
+                push[..n].copy_from_slice(&forces[z][..n]);
+            }
+            let (re, im, acc) = if side == 0 {
+                (&mut self.re, &mut self.im, &mut *self.acc)
+            } else {
+                (&mut self.right_re, &mut self.right_im, &mut *self.spare)
+            };
+            let [acc_l, acc_r] = acc;
+            acc_l[..n].fill([0.0; LANES]);
+            acc_r[..n].fill([0.0; LANES]);
+            run_block(
+                Modes {
+                    re,
+                    im,
+                    pole_re: &self.pole_re,
+                    pole_im: &self.pole_im,
+                    held_re: &self.held_re,
+                    held_im: &self.held_im,
+                    shape: &self.shape,
+                    out: [lr, li, rr, ri],
+                },
+                &pushes,
+                &active[..count],
+                &mut acc_l[..n],
+                &mut acc_r[..n],
+            );
+        }
+        for t in 0..n {
+            let direct = |mic: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize]| {
+                active.iter().map(|&z| self.direct[mic][z] * forces[z][t]).sum::<f64>()
+            };
+            left[t] = lane_sum(&self.acc[0][t]) + direct(0, left_forces, &active_l[..count_l]);
+            right[t] = lane_sum(&self.spare[1][t]) + direct(1, right_forces, &active_r[..count_r]);
+        }
+        if self.fade_step != 0.0 {
+            for (l, r) in left[..n].iter_mut().zip(&mut right[..n]) {
+                self.fade = (self.fade + self.fade_step).max(0.0);
+                *l *= self.fade;
+                *r *= self.fade;
+            }
+            if self.fade <= 0.0 {
+                self.silence();
+                return;
+            }
+        }
+        if !pushed {
+            let reach: f64 = [(&self.re, &self.im), (&self.right_re, &self.right_im)]
+                .into_iter()
+                .flat_map(|(re, im)| re.iter().zip(im))
+                .flat_map(|(r, i)| r.iter().zip(i))
+                .map(|(r, i)| r.abs() + i.abs())
+                .sum();
+            if reach * self.largest_weight < REST_LEVEL {
+                self.silence();
+            }
+        } else {
+            self.resting = false;
+        }
+    }
 }
 
 /// The running body's modes, by groups of LANES.

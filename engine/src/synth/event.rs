@@ -39,6 +39,12 @@ pub enum Event {
     /// parameters' polyphonic modulation, MPE timbre). The strike point stays
     /// within 2 % to 50 % of the string. It holds until the next one for the key.
     KeyHammer { key: u8, hardness: f32, position: f32 },
+    /// One key's own place in the stereo image (a CLAP note's pan
+    /// expression), -1 (left) ..= 1 (right), 0 where the instrument puts it:
+    /// each microphone (or, on the bridge-force output, each side) hears the
+    /// key at a constant-power gain of its own, reached over a control block.
+    /// It holds until the next one for the key.
+    KeyPan { key: u8, pan: f32 },
     /// CC123: every key is released (dampers fall where the pedals allow).
     AllNotesOff,
     /// CC120 / reset: every key falls silent within a few milliseconds, pedals up, bend centred.

@@ -345,7 +345,12 @@ impl Instrument {
             Output::Microphones => {
                 let n = self.bridge.len();
                 let [heard_l, heard_r] = &mut *self.heard;
-                self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n]);
+                if self.bridge.is_split() {
+                    let (l, r) = (self.bridge.zone_forces(), self.bridge.zone_forces_right());
+                    self.soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n]);
+                } else {
+                    self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n]);
+                }
                 left.iter_mut().zip(&heard_l[..n]).for_each(|(o, v)| *o += v);
                 right.iter_mut().zip(&heard_r[..n]).for_each(|(o, v)| *o += v);
             }
@@ -646,6 +651,11 @@ impl Synth {
                     k.set_volume(f64::from(gain));
                 }
             }
+            Event::KeyPan { key, pan } if pan.is_finite() => {
+                if let Some((k, _)) = self.current.route(key) {
+                    k.set_pan(f64::from(pan));
+                }
+            }
             Event::KeyHammer { key, hardness, position } if hardness.is_finite() && position.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.set_hammer(f64::from(hardness), f64::from(position));
@@ -665,6 +675,7 @@ impl Synth {
             | Event::KeyBend { .. }
             | Event::KeyVolume { .. }
             | Event::KeyHammer { .. }
+            | Event::KeyPan { .. }
             | Event::UnaCorda(_)
             | Event::Sustain(_)
             | Event::PitchBend(_) => {}
@@ -694,6 +705,7 @@ impl Synth {
                     k.set_tune(1.0);
                     k.set_volume(1.0);
                     k.set_hammer(1.0, 1.0);
+                    k.center();
                 }
             }
         }
@@ -810,7 +822,11 @@ impl Synth {
         let scope_key = self.scope.key();
         let output = self.controls.output;
         for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
-            instrument.bridge.start(n, output == Output::BridgeForce);
+            // The body runs once per microphone while a key has a place of its own.
+            let split = output == Output::Microphones
+                && (instrument.soundboard.is_split()
+                    || instrument.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
+            instrument.bridge.start(n, output == Output::BridgeForce, split);
             for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 let watched = i == 0 && scope_key == Some(key.midi_key());
                 let contact = if watched { self.scope.contact_slots(n) } else { None };

@@ -95,7 +95,7 @@ impl PanelKeyboard {
             if crate::standalone::is_standalone() {
                 ui.label(
                     egui::RichText::new(format!(
-                        "computer keys A-; play from {} (Z X octave, C V velocity {}), space the sustain",
+                        "computer keys A to ; from {} · Z/X octave · C/V velocity {} · space sustain",
                         super::views::key_name(self.typed_c),
                         self.typed_velocity
                     ))

@@ -25,8 +25,15 @@ fn default_settings(kind: InstrumentKind, fs: f64) -> InstrumentSettings {
     struck_engine::synth::default_settings(kind, fs).heard_through(Output::BridgeForce)
 }
 
-/// Render `seconds` with events given as (time in s, event), in host blocks of `block`.
+/// Render `seconds` with events given as (time in s, event), in host blocks
+/// of `block`, as mono.
 fn render(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize) -> Vec<f32> {
+    let (left, right) = render_stereo(synth, seconds, events, block);
+    left.iter().zip(&right).map(|(l, r)| 0.5 * (l + r)).collect()
+}
+
+/// [`render`]'s two channels, as built.
+fn render_stereo(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize) -> (Vec<f32>, Vec<f32>) {
     let total = (seconds * FS) as usize;
     let mut timed: Vec<(usize, Event)> = events.iter().map(|&(t, e)| ((t * FS).round() as usize, e)).collect();
     timed.sort_by_key(|e| e.0);
@@ -42,7 +49,7 @@ fn render(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize
         synth.process(&block_events, &mut left[start..end], &mut right[start..end]);
         start = end;
     }
-    left.iter().zip(&right).map(|(l, r)| 0.5 * (l + r)).collect()
+    (left, right)
 }
 
 fn rms(x: &[f32]) -> f64 {
@@ -221,25 +228,6 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
     assert!(back.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
-/// Both channels of a render, as built (the `render` helper mixes them).
-fn render_stereo(synth: &mut Synth, seconds: f64, events: &[(f64, Event)]) -> (Vec<f32>, Vec<f32>) {
-    let total = (seconds * FS) as usize;
-    let (mut left, mut right) = (vec![0.0f32; total], vec![0.0f32; total]);
-    let mut start = 0;
-    while start < total {
-        let end = (start + 256).min(total);
-        let due: Vec<TimedEvent> = events
-            .iter()
-            .map(|&(t, e)| ((t * FS).round() as usize, e))
-            .filter(|(t, _)| (start..end).contains(t))
-            .map(|(t, e)| TimedEvent::new((t - start) as u32, e))
-            .collect();
-        synth.process(&due, &mut left[start..end], &mut right[start..end]);
-        start = end;
-    }
-    (left, right)
-}
-
 #[test]
 fn a_key_placed_in_the_stereo_image_is_heard_there() {
     // C4 through the microphones: placed hard left, the right microphone hears
@@ -255,7 +243,7 @@ fn a_key_placed_in_the_stereo_image_is_heard_there() {
             events.push((0.0, Event::KeyPan { key: 60, pan }));
         }
         events.push((0.0, Event::NoteOn { key: 60, velocity: 0.7 }));
-        render_stereo(&mut s, 1.0, &events)
+        render_stereo(&mut s, 1.0, &events, 256)
     };
     let mics = |pan: Option<f32>| mics_with(pan, 1.0);
     let db = |x: &[f32]| 10.0 * (x.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() + 1e-300).log10();
@@ -288,7 +276,7 @@ fn a_key_placed_in_the_stereo_image_is_heard_there() {
     let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS);
     let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
     let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.7 }), (0.5, Event::KeyPan { key: 60, pan: 1.0 })];
-    let (ml, mr) = render_stereo(&mut s, 1.0, &events);
+    let (ml, mr) = render_stereo(&mut s, 1.0, &events, 256);
     let i = (0.5 * FS) as usize;
     let steps = |x: &[f32], a: usize, b: usize| x[a..b].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0f32, f32::max);
     // Against the key left in the middle over the same 50 ms, the right side

@@ -317,7 +317,59 @@ impl Soundboard {
             return;
         }
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
-        // Only the zones some key pushes on in this stretch.
+        let (active, count) = self.active_zones(forces, n);
+        let pushed = count > 0;
+        if !pushed && self.resting {
+            left[..n].fill(0.0);
+            right[..n].fill(0.0);
+            return;
+        }
+        self.run_side(0, forces, &active[..count], n);
+        let [acc_l, acc_r] = &*self.acc;
+        for t in 0..n {
+            left[t] = lane_sum(&acc_l[t]) + self.direct(0, forces, &active[..count], t);
+            right[t] = lane_sum(&acc_r[t]) + self.direct(1, forces, &active[..count], t);
+        }
+        self.finish(&mut left[..n], &mut right[..n], pushed);
+    }
+
+    /// [`Self::process`] with each microphone hearing the zones' forces as it
+    /// is to (`left_forces`, `right_forces`: some key placed in the stereo
+    /// image of its own): the modes run twice, once per microphone, from the
+    /// state they shared when the split began, until both rest. Real-time safe.
+    pub fn process_split(
+        &mut self,
+        left_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        right_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        left: &mut [f64],
+        right: &mut [f64],
+    ) {
+        let n = left.len().min(right.len()).min(CONTROL_BLOCK);
+        let ((active_l, count_l), (active_r, count_r)) =
+            (self.active_zones(left_forces, n), self.active_zones(right_forces, n));
+        let pushed = count_l + count_r > 0;
+        if !pushed && self.resting {
+            left[..n].fill(0.0);
+            right[..n].fill(0.0);
+            return;
+        }
+        if !self.split {
+            // The right microphone's modes start where the shared ones are.
+            self.right_re.copy_from_slice(&self.re);
+            self.right_im.copy_from_slice(&self.im);
+            self.split = true;
+        }
+        self.run_side(0, left_forces, &active_l[..count_l], n);
+        self.run_side(1, right_forces, &active_r[..count_r], n);
+        for t in 0..n {
+            left[t] = lane_sum(&self.acc[0][t]) + self.direct(0, left_forces, &active_l[..count_l], t);
+            right[t] = lane_sum(&self.spare[1][t]) + self.direct(1, right_forces, &active_r[..count_r], t);
+        }
+        self.finish(&mut left[..n], &mut right[..n], pushed);
+    }
+
+    /// The zones some key pushes on in the next `n` samples, and how many.
+    fn active_zones(&self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], n: usize) -> ([usize; MAX_ZONES], usize) {
         let mut active = [0usize; MAX_ZONES];
         let mut count = 0;
         for (z, f) in forces[..self.zones].iter().enumerate() {
@@ -326,25 +378,30 @@ impl Soundboard {
                 count += 1;
             }
         }
-        let pushed = count > 0;
-        if !pushed && self.resting {
-            left[..n].fill(0.0);
-            right[..n].fill(0.0);
-            return;
-        }
-        let [acc_l, acc_r] = &mut *self.acc;
-        acc_l[..n].fill([0.0; LANES]);
-        acc_r[..n].fill([0.0; LANES]);
-        let [[lr, li], [rr, ri]] = &self.out;
+        (active, count)
+    }
+
+    /// Run `n` samples of the `active` zones' forces through the modes as
+    /// the left microphone hears them (`side` 0: into `acc`) or the right (1:
+    /// the split modes, into `spare`).
+    fn run_side(&mut self, side: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize], n: usize) {
         // The active zones' forces side by side, for the kernel.
         let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
-        for (push, &z) in pushes.iter_mut().zip(&active[..count]) {
+        for (push, &z) in pushes.iter_mut().zip(active) {
             push[..n].copy_from_slice(&forces[z][..n]);
         }
+        let [[lr, li], [rr, ri]] = &self.out;
+        let (re, im, [acc_l, acc_r]) = if side == 0 {
+            (&mut self.re, &mut self.im, &mut *self.acc)
+        } else {
+            (&mut self.right_re, &mut self.right_im, &mut *self.spare)
+        };
+        acc_l[..n].fill([0.0; LANES]);
+        acc_r[..n].fill([0.0; LANES]);
         run_block(
             Modes {
-                re: &mut self.re,
-                im: &mut self.im,
+                re,
+                im,
                 pole_re: &self.pole_re,
                 pole_im: &self.pole_im,
                 held_re: &self.held_re,
@@ -353,17 +410,22 @@ impl Soundboard {
                 out: [lr, li, rr, ri],
             },
             &pushes,
-            &active[..count],
+            active,
             &mut acc_l[..n],
             &mut acc_r[..n],
         );
-        for t in 0..n {
-            let direct = |mic: usize| active[..count].iter().map(|&z| self.direct[mic][z] * forces[z][t]).sum::<f64>();
-            left[t] = lane_sum(&acc_l[t]) + direct(0);
-            right[t] = lane_sum(&acc_r[t]) + direct(1);
-        }
+    }
+
+    /// The force's direct share at microphone `mic` at sample `t`.
+    fn direct(&self, mic: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize], t: usize) -> f64 {
+        active.iter().map(|&z| self.direct[mic][z] * forces[z][t]).sum()
+    }
+
+    /// After a stretch: the fade of an "all sound off", and rest once nothing
+    /// pushes and the modes together could not reach [`REST_LEVEL`].
+    fn finish(&mut self, left: &mut [f64], right: &mut [f64], pushed: bool) {
         if self.fade_step != 0.0 {
-            for (l, r) in left[..n].iter_mut().zip(&mut right[..n]) {
+            for (l, r) in left.iter_mut().zip(right.iter_mut()) {
                 self.fade = (self.fade + self.fade_step).max(0.0);
                 *l *= self.fade;
                 *r *= self.fade;
@@ -373,11 +435,15 @@ impl Soundboard {
                 return;
             }
         }
-        // At rest once nothing pushes and the modes together could not reach REST_LEVEL.
         if !pushed {
-            let reach: f64 =
-                self.re.iter().zip(&self.im).flat_map(|(r, i)| r.iter().zip(i)).map(|(r, i)| r.abs() + i.abs()).sum();
-            if reach * self.largest_weight < REST_LEVEL {
+            let reach = |re: &[[f64; LANES]], im: &[[f64; LANES]]| -> f64 {
+                re.iter().zip(im).flat_map(|(r, i)| r.iter().zip(i)).map(|(r, i)| r.abs() + i.abs()).sum()
+            };
+            let mut total = reach(&self.re, &self.im);
+            if self.split {
+                total += reach(&self.right_re, &self.right_im);
+            }
+            if total * self.largest_weight < REST_LEVEL {
                 self.silence();
             }
         } else {
@@ -421,110 +487,6 @@ fn plan(
         }
     }
     PlannedMode { pole, held, shape, out, direct }
-}
-
-impl Soundboard {
-    /// [`Self::process`] with each microphone hearing the zones' forces as it
-    /// is to (`left_forces`, `right_forces`: some key placed in the stereo
-    /// image of its own): the modes run twice, once per microphone, from the
-    /// state they shared when the split began, until both rest. Real-time safe.
-    pub fn process_split(
-        &mut self,
-        left_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
-        right_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
-        left: &mut [f64],
-        right: &mut [f64],
-    ) {
-        let n = left.len().min(right.len()).min(CONTROL_BLOCK);
-        let active_of = |forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES]| {
-            let mut active = [0usize; MAX_ZONES];
-            let mut count = 0;
-            for (z, f) in forces[..self.zones].iter().enumerate() {
-                if f[..n].iter().any(|&v| v != 0.0) {
-                    active[count] = z;
-                    count += 1;
-                }
-            }
-            (active, count)
-        };
-        let ((active_l, count_l), (active_r, count_r)) = (active_of(left_forces), active_of(right_forces));
-        let pushed = count_l + count_r > 0;
-        if !pushed && self.resting {
-            left[..n].fill(0.0);
-            right[..n].fill(0.0);
-            return;
-        }
-        if !self.split {
-            // The right microphone's modes start where the shared ones are.
-            self.right_re.copy_from_slice(&self.re);
-            self.right_im.copy_from_slice(&self.im);
-            self.split = true;
-        }
-        let [[lr, li], [rr, ri]] = &self.out;
-        for (side, forces, active, count) in
-            [(0, left_forces, &active_l, count_l), (1, right_forces, &active_r, count_r)]
-        {
-            let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
-            for (push, &z) in pushes.iter_mut().zip(&active[..count]) {
-                push[..n].copy_from_slice(&forces[z][..n]);
-            }
-            let (re, im, acc) = if side == 0 {
-                (&mut self.re, &mut self.im, &mut *self.acc)
-            } else {
-                (&mut self.right_re, &mut self.right_im, &mut *self.spare)
-            };
-            let [acc_l, acc_r] = acc;
-            acc_l[..n].fill([0.0; LANES]);
-            acc_r[..n].fill([0.0; LANES]);
-            run_block(
-                Modes {
-                    re,
-                    im,
-                    pole_re: &self.pole_re,
-                    pole_im: &self.pole_im,
-                    held_re: &self.held_re,
-                    held_im: &self.held_im,
-                    shape: &self.shape,
-                    out: [lr, li, rr, ri],
-                },
-                &pushes,
-                &active[..count],
-                &mut acc_l[..n],
-                &mut acc_r[..n],
-            );
-        }
-        for t in 0..n {
-            let direct = |mic: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize]| {
-                active.iter().map(|&z| self.direct[mic][z] * forces[z][t]).sum::<f64>()
-            };
-            left[t] = lane_sum(&self.acc[0][t]) + direct(0, left_forces, &active_l[..count_l]);
-            right[t] = lane_sum(&self.spare[1][t]) + direct(1, right_forces, &active_r[..count_r]);
-        }
-        if self.fade_step != 0.0 {
-            for (l, r) in left[..n].iter_mut().zip(&mut right[..n]) {
-                self.fade = (self.fade + self.fade_step).max(0.0);
-                *l *= self.fade;
-                *r *= self.fade;
-            }
-            if self.fade <= 0.0 {
-                self.silence();
-                return;
-            }
-        }
-        if !pushed {
-            let reach: f64 = [(&self.re, &self.im), (&self.right_re, &self.right_im)]
-                .into_iter()
-                .flat_map(|(re, im)| re.iter().zip(im))
-                .flat_map(|(r, i)| r.iter().zip(i))
-                .map(|(r, i)| r.abs() + i.abs())
-                .sum();
-            if reach * self.largest_weight < REST_LEVEL {
-                self.silence();
-            }
-        } else {
-            self.resting = false;
-        }
-    }
 }
 
 /// The running body's modes, by groups of LANES.

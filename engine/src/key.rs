@@ -729,7 +729,6 @@ impl Key {
         self.pressure = pressure.clamp(0.0, 1.0);
     }
 
-    /// How much deeper full pressure presses a tangent, as a fraction of its depth.
     /// How loud the action's sounds are against the physics.
     pub fn set_noise(&mut self, noise: ActionNoise) {
         self.noise = noise;
@@ -760,12 +759,7 @@ impl Key {
     /// Its own place in the stereo image, -1 (left) ..= 1 (right), 0 where the
     /// instrument puts it; reached over a control block.
     pub fn set_pan(&mut self, pan: f64) {
-        if self.is_sounding() { self.pan.set(pan) } else { self.pan.set_now(pan) }
-    }
-
-    /// Back where the instrument puts it, at once.
-    pub fn center(&mut self) {
-        self.pan = KeyPan::default();
+        if self.is_sounding() { self.pan.set(pan, self.bridge_point) } else { self.pan.set_now(pan, self.bridge_point) }
     }
 
     /// Whether it has a place of its own in the stereo image (or is moving to one).

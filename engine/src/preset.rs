@@ -81,8 +81,9 @@ impl From<FieldError> for PresetError {
 impl Preset {
     /// Read and check a preset from JSON text.
     pub fn parse(text: &str) -> Result<Self, PresetError> {
-        let value: Value =
+        let mut value: Value =
             serde_json::from_str(text).map_err(|e| PresetError::Invalid(format!("not valid JSON: {e}")))?;
+        upgrade(&mut value);
         let Value::Object(top) = &value else {
             return Err(PresetError::Invalid("a preset must be a JSON object".into()));
         };
@@ -198,6 +199,24 @@ fn within(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<(), Fi
         Err(field(name, format!("must be from {lo} to {hi}{unit} (got {value})")))
     }
 }
+
+/// Bring a preset written before a field changed up to date: `controls.bebung`
+/// (how much deeper full pressure pressed, a fraction of the depth: 0 to 1,
+/// 0.25 the old default) becomes `bebung_cents` (how far it raises the note):
+/// 80 cents times it, so the old default is the new one and a deep 0.6, 48
+/// cents. A preset giving both keeps its `bebung_cents`.
+fn upgrade(preset: &mut Value) {
+    let Some(Value::Object(controls)) = preset.get_mut("controls") else { return };
+    if let Some(old) = controls.remove("bebung")
+        && !controls.contains_key("bebung_cents")
+    {
+        let cents = old.as_f64().map_or(old.clone(), |fraction| Value::from(OLD_BEBUNG_CENTS * fraction));
+        controls.insert("bebung_cents".into(), cents);
+    }
+}
+
+/// What a whole old `bebung` (full pressure twice as deep) is taken as, cents.
+const OLD_BEBUNG_CENTS: f64 = 80.0;
 
 /// Every key of `section` must be one of `defaults`' keys.
 fn known_fields(name: &str, section: &Value, defaults: &Value) -> Result<(), PresetError> {
@@ -475,6 +494,17 @@ mod tests {
         assert_eq!(p.voicing.felt_hysteresis, 0.0, "0: elastic felt");
         let c = p.controls;
         assert_eq!([c.sympathy, c.phantom, c.key_noise, c.damper_noise, c.pedal_noise], [0.0, 0.5, 4.0, 0.25, 0.0]);
+    }
+
+    #[test]
+    fn a_preset_from_before_the_bebung_range_still_loads() {
+        let old = Preset::parse(r#"{"controls": {"bebung": 0.25}}"#).unwrap();
+        assert_eq!(old.controls.bebung_cents, 20.0, "the old default is the new one");
+        assert_eq!(Preset::parse(r#"{"controls": {"bebung": 0.6}}"#).unwrap().controls.bebung_cents, 48.0);
+        let both = Preset::parse(r#"{"controls": {"bebung": 0.6, "bebung_cents": 10}}"#).unwrap();
+        assert_eq!(both.controls.bebung_cents, 10.0);
+        let e = Preset::parse(r#"{"controls": {"bebung": "deep"}}"#).unwrap_err().to_string();
+        assert!(e.contains("controls.bebung_cents: invalid type"), "{e}");
     }
 
     #[test]

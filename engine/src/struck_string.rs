@@ -454,3 +454,57 @@ impl StruckString {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::string::damping::Damping;
+    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
+
+    fn string() -> StringModes {
+        StringSpec {
+            length_m: 0.4,
+            tuning: Tuning::TensionN(191.0),
+            mass: Mass::PerLengthKgM(1.54e-3),
+            stiffness: Stiffness::Inharmonicity(3e-4),
+            damping: Damping::UniformQ(1000.0),
+            max_frequency_hz: 12_000.0,
+            outer_diameter_m: None,
+        }
+        .build()
+        .unwrap()
+    }
+
+    /// A strike or pluck at a new point moves the string's tables there in
+    /// place: they are, to the bit, the tables built there afresh, and back
+    /// again the ones it had.
+    #[test]
+    fn tables_moved_in_place_are_the_ones_built_there() {
+        let at = |position: f64, pluck: bool| {
+            let mut s = StruckString::with_substep_counts(string(), 48_000.0, &[2, 8]);
+            if pluck {
+                s.prepare_pluck(position)
+            } else {
+                s.prepare_hammer(position)
+            }
+            s
+        };
+        for pluck in [false, true] {
+            let (mut moved, there, home) = (at(0.12, pluck), at(0.31, pluck), at(0.12, pluck));
+            for (to, expected) in [(0.31, &there), (0.12, &home)] {
+                let StruckString { string, bank, audio, fine, exciter, .. } = &mut moved;
+                match (exciter, &expected.exciter) {
+                    (Exciter::Hammer(rig), Exciter::Hammer(built)) => {
+                        rig.move_to(string, bank, audio, fine, to);
+                        assert!(rig.same_tables(built), "the hammer's tables at {to}");
+                    }
+                    (Exciter::Pluck(rig), Exciter::Pluck(built)) => {
+                        rig.move_to(string, bank, audio, to);
+                        assert!(*rig == *built, "the plectrum's tables at {to}");
+                    }
+                    _ => panic!("no rig"),
+                }
+            }
+        }
+    }
+}

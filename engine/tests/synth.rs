@@ -229,6 +229,34 @@ fn a_keys_own_hammer_is_harder_and_strikes_where_it_is_told() {
 }
 
 #[test]
+fn keys_that_share_strings_keep_their_own_hammer() {
+    // The dulcimer's C#5 course sounds G#5 on its short side. G#5 struck
+    // with a mallet 16 times softer, then C#5 struck as voiced: C#5's strike
+    // is the same as after a plain G#5 (its 5th and 7th partials, which
+    // G#5's do not meet, against its 1st).
+    let c_sharp = struck_engine::design::key_frequency_hz(73);
+    let after = |hardness: f32| {
+        let mut s = synth(InstrumentKind::Dulcimer);
+        let events = [
+            (0.0, Event::KeyHammer { key: 80, hardness, position: 1.0 }),
+            (0.0, Event::NoteOn { key: 80, velocity: 0.7 }),
+            (1.0, Event::NoteOn { key: 73, velocity: 0.7 }),
+        ];
+        let out = render(&mut s, 1.6, &events, 256);
+        let x = &out[(1.0 * FS) as usize..];
+        let g_sharp = struck_engine::design::key_frequency_hz(80);
+        let own = [5, 7].map(|n| partial_db(&out, g_sharp, n) - partial_db(&out, g_sharp, 1));
+        (own, [5, 7].map(|n| partial_db(x, c_sharp, n) - partial_db(x, c_sharp, 1)))
+    };
+    let ((g_plain, plain), (g_soft, soft)) = (after(1.0), after(1.0 / 16.0));
+    println!(
+        "G#5 plain: partials 5, 7 at {g_plain:.1?} dB, soft: {g_soft:.1?}; C#5 after a plain G#5: {plain:.1?} dB, after a soft one: {soft:.1?} dB"
+    );
+    assert!(g_plain.iter().zip(&g_soft).any(|(a, b)| (a - b).abs() > 3.0), "G#5's own mallet did not change");
+    assert!(plain.iter().zip(&soft).all(|(a, b)| (a - b).abs() < 0.5), "{plain:?} against {soft:?}");
+}
+
+#[test]
 fn a_key_placed_in_the_stereo_image_is_heard_there() {
     // C4 through the microphones: placed hard left, the right microphone hears
     // nothing of it and the left 3 dB more; at 0.5 right, the right side gains

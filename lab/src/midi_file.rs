@@ -326,7 +326,9 @@ fn read_track(
             }
             TrackEventKind::Midi { channel, message } => {
                 let is_note_on = matches!(message, MidiMessage::NoteOn { vel, .. } if vel.as_int() > 0);
-                if channel.as_int() == DRUM_CHANNEL && !options.include_channel_10 {
+                // (An MPE song's channel 10 is a member channel like any other.)
+                let drums = !options.include_channel_10 && options.mpe_bend_range.is_none();
+                if channel.as_int() == DRUM_CHANNEL && drums {
                     *drum_notes += usize::from(is_note_on);
                     continue;
                 }

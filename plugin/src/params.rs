@@ -198,8 +198,9 @@ pub struct TangentParams {
     #[id = "tdep"]
     pub depth: FloatParam,
     /// How far full aftertouch raises a held note, cents (Bebung: the
-    /// tangent presses deeper).
-    #[id = "bebc"]
+    /// tangent presses deeper). The id is the one the parameter had as a
+    /// share of the depth (0-100 %): a saved 25 % comes back as 25 cents.
+    #[id = "bebg"]
     pub bebung: FloatParam,
     /// Fretted: neighbouring keys share a pair of strings; the higher tangent wins.
     #[id = "fret"]
@@ -638,7 +639,7 @@ mod tests {
         let expected =
             ["inst", "tmin", "tmax", "tshp", "vflo", "vfhi", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
                 .into_iter()
-                .chain(["tdep", "bebc", "fret", "a4", "temp", "root", "strt"])
+                .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
                 .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
                 .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
                 .collect::<Vec<_>>();

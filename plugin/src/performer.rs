@@ -135,8 +135,10 @@ impl Performer {
             self.poly_offsets = [(0.0, 0.0); 128];
             self.velocity_low = [None; 16];
         }
-        let events = &mut self.events;
-        self.keyboard.take_panel_events(&mut self.panel_seen, |e| events.push(e));
+        // The panel's keys as a host's notes on channel 1 (with no note id).
+        let (keyboard, mut seen) = (self.keyboard.clone(), self.panel_seen);
+        keyboard.take_panel_events(&mut seen, |e| self.translate_panel(e));
+        self.panel_seen = seen;
         let mut start = 0;
         let mut last = 0;
         while let Some(event) = port.next_event() {
@@ -161,8 +163,13 @@ impl Performer {
         self.synth.process(&self.events, &mut left[from..to], &mut right[from..to]);
         self.events.clear();
         for ended in self.synth.ended_keys() {
-            let (voice, channel) = self.voices[ended.key as usize & 127];
+            let k = ended.key as usize & 127;
+            let (voice, channel) = self.voices[k];
             port.key_ended(from as u32 + ended.time, ended.key, voice, channel);
+            // Its note id is done with (a host may give it to another note).
+            if !self.synth.key_sounding(ended.key) {
+                self.voices[k].0 = None;
+            }
         }
     }
 
@@ -263,6 +270,23 @@ impl Performer {
 }
 
 impl Performer {
+    /// One of the panel's events, at the block's start.
+    fn translate_panel(&mut self, event: TimedEvent) {
+        use nice_plug::midi::{Channel, Key, VoiceID};
+        let (voice_id, channel) = (VoiceID::Wildcard, Channel::Number(0));
+        match event.event {
+            Event::NoteOn { key, velocity } => self.translate(
+                NoteEvent::<()>::NoteOn { timing: 0, voice_id, channel, key: Key::Number(key), velocity },
+                event.time,
+            ),
+            Event::NoteOff { key, velocity } => self.translate(
+                NoteEvent::<()>::NoteOff { timing: 0, voice_id, channel, key: Key::Number(key), velocity },
+                event.time,
+            ),
+            _ => self.events.push(event),
+        }
+    }
+
     /// Push `event` (a key's own hammer or place) at `time`, ahead of that
     /// key's strike if it was struck at the same sample: a CLAP host sends a
     /// note's expressions and modulation just after its note-on, and they
@@ -718,10 +742,15 @@ mod tests {
         let (bright, _) = strike(&[note_on(0, 48, 0.7, 1, 0), brightness(1.0)], false);
         let (dark, _) = strike(&[note_on(0, 48, 0.7, 1, 0), brightness(0.0)], false);
         let (harder, _) = strike(&[note_on(0, 48, 0.7, 1, 0), modulation(crate::params::POLY_HARDNESS, 0.5)], false);
-        // The strike position parameter's full travel up from the middle is 4 times
-        // the built 0.13: C3's hammer at a quarter of the string (its 4th partial's node).
-        let factor = StruckParams::default().hammer_modulation((0.0, 0.5)).1;
-        let (_, moved_4th) = strike(&[note_on(0, 48, 0.7, 1, 0), modulation(crate::params::POLY_POSITION, 0.5)], false);
+        // C3's hammer, built at 0.13 of the string, modulated to a quarter of it
+        // (its 4th partial's node): the offset that takes the strike position
+        // parameter from its middle (as built) to 0.25 / 0.13.
+        let params = StruckParams::default();
+        let built = 0.13;
+        let offset = params.hammer.position.preview_normalized((0.25 / built) as f32) - 0.5;
+        let factor = params.hammer_modulation((0.0, offset)).1;
+        let (_, moved_4th) =
+            strike(&[note_on(0, 48, 0.7, 1, 0), modulation(crate::params::POLY_POSITION, offset)], false);
         // MPE: the member channel's CC74 before its note.
         let timbre = NoteEvent::MidiCC { timing: 0, channel: 2, cc: 74, value: 1.0 };
         let (mpe_bright, _) = strike(&[timbre, note_on(0, 48, 0.7, 1, 2)], true);
@@ -734,7 +763,7 @@ mod tests {
         assert!(bright > plain + 3.0 && dark < plain - 3.0, "{dark:.1} {plain:.1} {bright:.1}");
         assert!(harder > plain + 3.0, "{harder:.1} against {plain:.1}");
         assert!(mpe_bright > plain + 3.0 && (mpe_off - plain).abs() < 0.01, "{mpe_bright:.1} {mpe_off:.1}");
-        assert!((factor - 4.0).abs() < 1e-3, "{factor}");
+        assert!((f64::from(factor) * built - 0.25).abs() < 1e-4, "{factor}");
         assert!(moved_4th < plain_4th - 15.0, "{plain_4th:.1} -> {moved_4th:.1} dB");
         // The expression goes ahead of its note's strike; the next note on the
         // key strikes as voiced again.

@@ -8,7 +8,12 @@
 # Then automation: a piano session whose hammer mass steps from 0.6 to 1.7
 # at the sample of its one note is bounced, reopened and bounced again, and
 # a session with the mass at 1.7 throughout is bounced: all three must be the
-# same samples (the change heard from its sample, every bounce alike).
+# same samples (not late, every bounce alike). The same step with E4 struck a
+# second before it must be a session with the mass at 0.6 throughout up to
+# where Ardour hands the step over: Ardour 7.3's bounce applies a plugin's
+# automation once per 8192-sample cycle, at the start of the cycle that holds
+# the point (here 5888 samples early); within a block the plugin takes a
+# change at its sample (tests/plugin_host.rs, in a CLAP host).
 #
 # usage: roundtrip.sh STRUCK_VST3_BUNDLE LOG_DIR
 set -euo pipefail
@@ -72,7 +77,7 @@ done
 
 # Automation at the sample, and bounces alike.
 export STRUCK_INSTRUMENT=0 NICE_LOG=$logs/automation-plugin.log
-for step in "automated automate" "automated reopen" "steady steady"; do
+for step in "automated automate" "automated reopen" "steady steady" "early automate-early" "light light-early"; do
   read -r session mode <<<"$step"
   out=$logs/automation-$mode.log
   if ! ardour7-lua "$here/struck_session.lua" "$mode" "$work/$session" "$mode" >"$out" 2>&1; then
@@ -84,9 +89,16 @@ done
 mapfile -t automated < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-automate.log")
 mapfile -t again < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-reopen.log")
 mapfile -t steady < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-steady.log")
+mapfile -t early < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-automate-early.log")
+mapfile -t light < <(sed -n 's/^struck-session: rendered: //p' "$logs/automation-light-early.log")
 for c in 0 1; do
   python3 "$here/same_sound.py" "${automated[$c]}" "${again[$c]}" "automated piano, channel $((c + 1))" \
     "the automated session's second bounce"
   python3 "$here/same_sound.py" "${automated[$c]}" "${steady[$c]}" "automated piano, channel $((c + 1))" \
     "the mass stepped at the note's sample against the mass there throughout"
+  # E4 struck at 1 s with the light mass, up to where Ardour hands the step
+  # to the plugin: the start of the bounce's 8192-sample cycle that holds it
+  # (frame 90112; Ardour 7.3 applies a plugin's automation per cycle there).
+  python3 "$here/same_sound.py" "${early[$c]}" "${light[$c]}" "automated piano, channel $((c + 1))" \
+    "up to the cycle holding the step, the light mass throughout" 90112
 done

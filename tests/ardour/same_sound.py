@@ -1,6 +1,7 @@
 """Whether two WAV exports (PCM or float) hold the same bytes of sound, and
-that sound is not silence. usage: same_sound.py FIRST.wav SECOND.wav NAME [WHAT]
-(WHAT: what the second is, "the reopened session" unless given)"""
+that sound is not silence. usage: same_sound.py FIRST.wav SECOND.wav NAME [WHAT [UNTIL]]
+(WHAT: what the second is, "the reopened session" unless given; UNTIL: compare
+only the frames before this one)"""
 import math
 import struct
 import sys
@@ -38,7 +39,11 @@ def peak_dbfs(fmt, samples):
 
 first, second, name = sys.argv[1], sys.argv[2], sys.argv[3]
 what = sys.argv[4] if len(sys.argv) > 4 else "the reopened session"
+until = int(sys.argv[5]) if len(sys.argv) > 5 else None
 (fmt_a, a), (fmt_b, b) = sound(first), sound(second)
+if until is not None:
+    frame_bytes = fmt_a[1] * fmt_a[3] // 8
+    a, b = a[:until * frame_bytes], b[:until * frame_bytes]
 if fmt_a != fmt_b or len(a) != len(b):
     sys.exit(f"ardour: {name}: the exports differ in format or length ({fmt_a}, {len(a)} against {fmt_b}, {len(b)} bytes)")
 peak = peak_dbfs(fmt_a, a)

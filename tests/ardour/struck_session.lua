@@ -15,9 +15,13 @@
 -- sample where the hammer's mass is automated from 0.6 to 1.7 (a step), saves
 -- and renders it; `steady` the same with the mass at 1.7 throughout. A
 -- bounce of the automated session (again when `reopen`ed) must be the
--- steady one's, sample for sample.
+-- steady one's, sample for sample: the change is not late.
+-- `automate-early` and `light-early` do the same with E4 struck at 1 s too,
+-- the latter with the mass at 0.6 throughout: the two must be the same
+-- samples until Ardour hands the change over (the change is not early).
 --
--- usage: ardour7-lua struck_session.lua create|reopen|automate|steady SESSION_DIR RENDER_NAME
+-- usage: ardour7-lua struck_session.lua MODE SESSION_DIR RENDER_NAME
+--   MODE: create, reopen, automate, steady, automate-early or light-early
 -- environment: STRUCK_INSTRUMENT, the "Instrument" parameter's index (0-6).
 
 local mode, session_dir, render_name = arg[1], arg[2], arg[3]
@@ -133,14 +137,16 @@ local function create()
   save_and_render(track, processor)
 end
 
--- The hammer's mass stepped from LIGHT to HEAVY at STEP (`automated`), or
--- HEAVY throughout.
-local function automation(automated)
-  local track, processor = new_session({ { 60, 100, STEP / RATE, STEP / RATE + 1.0 } })
+-- The hammer's mass stepped from LIGHT to HEAVY at STEP (`steady` nil), or
+-- `steady` throughout; with an `early` note (E4 at 1 s) before the step too.
+local function automation(steady, early)
+  local notes = { { 60, 100, STEP / RATE, STEP / RATE + 1.0 } }
+  if early then notes[#notes + 1] = { 64, 90, 1.0, 1.3 } end
+  local track, processor = new_session(notes)
   local plugin = processor:to_insert():plugin(0)
   local mass = parameter_index(plugin, "Hammer mass")
-  if not automated then
-    assert(ARDOUR.LuaAPI.set_processor_param(processor, mass, HEAVY), "could not set the mass")
+  if steady then
+    assert(ARDOUR.LuaAPI.set_processor_param(processor, mass, steady), "could not set the mass")
   else
     local list, points = ARDOUR.LuaAPI.plugin_automation(processor, mass)
     assert(not list:isnil(), "no automation for the hammer's mass")
@@ -174,11 +180,15 @@ if mode == "create" then
 elseif mode == "reopen" then
   reopen()
 elseif mode == "automate" then
-  automation(true)
+  automation(nil, false)
 elseif mode == "steady" then
-  automation(false)
+  automation(HEAVY, false)
+elseif mode == "automate-early" then
+  automation(nil, true)
+elseif mode == "light-early" then
+  automation(LIGHT, true)
 else
-  error("create, reopen, automate or steady")
+  error("create, reopen, automate, steady, automate-early or light-early")
 end
 -- Every Lua reference to the session's objects must go before the session
 -- closes (they would be destroyed after it).

@@ -37,6 +37,7 @@ pub enum Output {
 /// in each channel's sum).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BridgePoint {
+    pan: f64,
     left: f64,
     right: f64,
     zones: ZoneShare,
@@ -45,12 +46,19 @@ pub struct BridgePoint {
 impl BridgePoint {
     /// A point heard at `pan`, -1 (left) ..= 1 (right), on no zone.
     pub fn panned(pan: f64) -> Self {
-        let angle = (pan.clamp(-1.0, 1.0) + 1.0) * std::f64::consts::FRAC_PI_4;
+        let pan = pan.clamp(-1.0, 1.0);
+        let angle = (pan + 1.0) * std::f64::consts::FRAC_PI_4;
         Self {
+            pan,
             left: angle.cos() * std::f64::consts::SQRT_2,
             right: angle.sin() * std::f64::consts::SQRT_2,
             zones: ZoneShare { zones: [0, 0], weights: [0.0, 0.0] },
         }
+    }
+
+    /// Where the bridge-force output places it, -1 (left) ..= 1 (right).
+    pub fn pan(&self) -> f64 {
+        self.pan
     }
 
     /// The same point bearing on the body's zones as `share` says.
@@ -90,54 +98,77 @@ impl Default for Bridge {
 }
 
 /// A key's own place in the stereo image (a note's pan expression): a gain on
-/// each side, constant power, 1 and 1 in the middle, reached in even steps
-/// over a control block's samples (however the blocks are cut).
+/// each microphone's hearing of its push, constant power, 1 and 1 in the
+/// middle; and, for the bridge-force output, the pan law's gains at its own
+/// place added to where the instrument puts the key. Both are reached in even
+/// steps over a control block's samples (however the blocks are cut).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KeyPan {
-    gains: [f64; 2],
-    to: [f64; 2],
-    step: [f64; 2],
+    /// Microphones, then the bridge-force output: left and right each.
+    gains: [f64; 4],
+    to: [f64; 4],
+    step: [f64; 4],
     /// Samples left to glide.
     left: usize,
+    /// Whether it has a place of its own (else `gains` is for the middle).
+    placed: bool,
 }
 
 impl Default for KeyPan {
     fn default() -> Self {
-        Self { gains: [1.0; 2], to: [1.0; 2], step: [0.0; 2], left: 0 }
+        Self { gains: [1.0; 4], to: [1.0; 4], step: [0.0; 4], left: 0, placed: false }
     }
 }
 
 impl KeyPan {
-    /// Move to `pan`, -1 (left) ..= 1 (right), over the next control block.
-    pub fn set(&mut self, pan: f64) {
+    /// Move to `pan`, -1 (left) ..= 1 (right), for a key at `at`, over the
+    /// next control block.
+    pub fn set(&mut self, pan: f64, at: BridgePoint) {
         let pan = if pan.is_finite() { pan.clamp(-1.0, 1.0) } else { 0.0 };
-        let point = BridgePoint::panned(pan);
-        self.to = [point.left, point.right];
-        if pan == 0.0 {
-            // Exactly as built in the middle.
-            self.to = [1.0, 1.0];
+        let (mics, out) = (BridgePoint::panned(pan), BridgePoint::panned(at.pan + pan));
+        // Exactly as built in the middle.
+        self.to = if pan == 0.0 { [1.0, 1.0, at.left, at.right] } else { [mics.left, mics.right, out.left, out.right] };
+        if !self.placed {
+            // From where the key is heard now.
+            self.gains = [1.0, 1.0, at.left, at.right];
         }
-        self.step = [0, 1].map(|c| (self.to[c] - self.gains[c]) / CONTROL_BLOCK as f64);
+        self.placed = true;
+        self.step = [0, 1, 2, 3].map(|c| (self.to[c] - self.gains[c]) / CONTROL_BLOCK as f64);
         self.left = CONTROL_BLOCK;
+        if pan == 0.0 && self.gains == self.to {
+            *self = Self::default();
+        }
     }
 
     /// At `pan` at once (a key that is not sounding has nothing to glide).
-    pub fn set_now(&mut self, pan: f64) {
-        self.set(pan);
+    pub fn set_now(&mut self, pan: f64, at: BridgePoint) {
+        self.set(pan, at);
         self.gains = self.to;
         self.left = 0;
+        if pan == 0.0 || !pan.is_finite() {
+            *self = Self::default();
+        }
     }
 
-    /// Whether it is other than the middle, or moving.
+    /// Whether it has a place of its own, or is moving to or from one.
     pub fn is_placed(&self) -> bool {
-        self.gains != [1.0, 1.0] || self.to != [1.0, 1.0]
+        self.placed
     }
 
-    /// The gains for the next sample.
-    fn next(&mut self) -> [f64; 2] {
+    /// The gains for the next sample: microphones left and right, bridge
+    /// force left and right.
+    fn next(&mut self) -> [f64; 4] {
         if self.left > 0 {
             self.left -= 1;
-            self.gains = if self.left == 0 { self.to } else { [0, 1].map(|c| self.gains[c] + self.step[c]) };
+            if self.left == 0 {
+                self.gains = self.to;
+                if self.to[..2] == [1.0, 1.0] {
+                    // Back in the middle: as built from here on.
+                    self.placed = false;
+                }
+            } else {
+                self.gains = [0, 1, 2, 3].map(|c| self.gains[c] + self.step[c]);
+            }
         }
         self.gains
     }
@@ -205,10 +236,10 @@ impl Bridge {
     /// hear their mean (the body is not yet run twice).
     pub fn drive_placed(&mut self, at: BridgePoint, force: &[f64], pan: &mut KeyPan) {
         for (t, f) in force[..self.len].iter().enumerate() {
-            let [gl, gr] = pan.next();
+            let [gl, gr, out_l, out_r] = pan.next();
             if self.panned {
-                self.out[0][t] += f * at.left * gl;
-                self.out[1][t] += f * at.right * gr;
+                self.out[0][t] += f * out_l;
+                self.out[1][t] += f * out_r;
             }
             for (zone, weight) in at.zones.zones.into_iter().zip(at.zones.weights) {
                 if weight != 0.0 {
@@ -268,7 +299,7 @@ mod tests {
         let point = BridgePoint::panned(0.0).on_zones(ZoneShare { zones: [1, 1], weights: [1.0, 0.0] });
         let mut pan = KeyPan::default();
         assert!(!pan.is_placed());
-        pan.set(-1.0);
+        pan.set(-1.0, point);
         assert!(pan.is_placed());
         // Over a control block it glides to hard left, then holds.
         bridge.start(CONTROL_BLOCK, true, true);
@@ -281,10 +312,30 @@ mod tests {
         assert!((bridge.zone_forces()[1][0] - std::f64::consts::SQRT_2 - 0.5).abs() < 1e-12);
         assert!((bridge.zone_forces_right()[1][0] - 0.5).abs() < 1e-12);
         // Back to the middle: exactly as built.
-        pan.set(0.0);
+        pan.set(0.0, point);
         bridge.start(CONTROL_BLOCK, true, true);
         bridge.drive_placed(point, &[1.0; CONTROL_BLOCK], &mut pan);
         assert!(!pan.is_placed());
+    }
+
+    #[test]
+    fn on_the_bridge_force_a_notes_pan_adds_to_the_keys_own_place() {
+        // A key the instrument puts at 0.6 right, placed 0.4 further right by
+        // its note: it is heard hard right, at the pan law's full gain.
+        let mut bridge = Bridge::default();
+        let at = BridgePoint::panned(0.6);
+        let mut pan = KeyPan::default();
+        pan.set_now(0.4, at);
+        bridge.start(1, true, false);
+        bridge.drive_placed(at, &[1.0], &mut pan);
+        let (l, r) = bridge.panned();
+        assert!(l[0].abs() < 1e-12 && (r[0] - std::f64::consts::SQRT_2).abs() < 1e-12, "{l:?} {r:?}");
+        // Placed at -0.6, it is heard in the middle.
+        pan.set_now(-0.6, at);
+        bridge.start(1, true, false);
+        bridge.drive_placed(at, &[1.0], &mut pan);
+        let (l, r) = bridge.panned();
+        assert!((l[0] - 1.0).abs() < 1e-12 && (r[0] - 1.0).abs() < 1e-12, "{l:?} {r:?}");
     }
 
     #[test]

@@ -178,7 +178,7 @@ pub enum Hold {
 /// mode n receives the modal acceleration `gain_n u`. It observes the scalar
 /// sum_n `observe_n` q_n (the string's displacement at the contact point, or the
 /// force at the tangent). Built once per string, exciter position and step size.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DriveTable {
     /// Coefficient of the previous step's input in the one-pass update: p b1 + b0.
     carry_re: Vec<f64>,

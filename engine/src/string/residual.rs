@@ -103,6 +103,7 @@ pub fn omitted_tangent_shares_kg(string: &StringModes) -> (f64, f64) {
 /// The omitted modes as seen from one strike point, for a hammer's contact: the
 /// spring R and dashpot c of the Kelvin-Voigt element above, and the static share
 /// of the bridge force.
+#[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Residual {
     /// Static compliance R, m/N.
     pub compliance_m_n: f64,

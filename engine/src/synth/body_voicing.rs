@@ -239,7 +239,13 @@ impl Body<'_, '_> {
 /// Run the board from rest under `force` spread over `share`'s zones times
 /// `scale`, handing `heard` each sample's index and what the two microphones
 /// hear then.
-fn play_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64, mut heard: impl FnMut(usize, f64, f64)) {
+fn play_board(
+    soundboard: &mut Soundboard,
+    share: ZoneShare,
+    force: &[f64],
+    scale: f64,
+    mut heard: impl FnMut(usize, f64, f64),
+) {
     soundboard.silence();
     let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
     let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);

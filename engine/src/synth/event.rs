@@ -287,6 +287,9 @@ impl HammerRouter {
         if !self.mpe || channel == 0 || !value.is_finite() {
             return;
         }
+        // MIDI's 64 of 127 is the middle: as voiced.
+        let steps = (value.clamp(0.0, 1.0) * 127.0).round();
+        let value = if steps <= 64.0 { steps / 128.0 } else { 0.5 + (steps - 64.0) / 126.0 };
         self.channel_timbre[channel as usize] = value;
         for key in 0..128u8 {
             if self.channel_of[key as usize] == Some(channel) {
@@ -427,5 +430,8 @@ mod tests {
         h.timbre(0, 1.0, |e| out.push(e));
         assert!(out.is_empty(), "the master channel's CC74 is not a note's timbre");
         assert_eq!(h.modulate(64, f32::NAN, 1.0), None);
+        // The middle of CC74 (64) is as voiced.
+        h.timbre(3, 64.0 / 127.0, |e| out.push(e));
+        assert_eq!(out.last(), Some(&Event::KeyHammer { key: 67, hardness: 1.0, position: 1.0 }));
     }
 }

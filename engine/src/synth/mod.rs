@@ -31,12 +31,12 @@ use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard}
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
-use sympathy::Sympathy;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
+use sympathy::Sympathy;
 
 pub use crate::CONTROL_BLOCK;
 pub use crate::key::MAX_BEBUNG_CENTS;
@@ -432,6 +432,12 @@ pub struct Synth {
     una_corda: f64,
     /// Hand-held mallets' hardness from the mod wheel: a factor on the contact stiffness.
     hardness: f64,
+    /// Each MIDI key's own tuning, volume, place and hammer (its note's
+    /// expressions), and which MIDI key's the strings of each course have
+    /// now (by the course's home key): keys that share strings (the
+    /// dulcimer's upper courses, a fretted clavichord) each keep their own.
+    own: [OwnNote; 128],
+    owner: [u8; 128],
     /// Pitch-wheel position -1..=1 and the frequency ratio it gives.
     wheel: f64,
     bend: f64,
@@ -446,6 +452,22 @@ pub struct Synth {
     mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
+}
+
+/// A MIDI key's own note shaping ([`Event::KeyBend`], [`Event::KeyVolume`],
+/// [`Event::KeyPan`], [`Event::KeyHammer`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct OwnNote {
+    tune: f64,
+    volume: f64,
+    pan: f64,
+    hammer: (f64, f64),
+}
+
+impl Default for OwnNote {
+    fn default() -> Self {
+        Self { tune: 1.0, volume: 1.0, pan: 0.0, hammer: (1.0, 1.0) }
+    }
 }
 
 impl Synth {
@@ -464,6 +486,8 @@ impl Synth {
             sostenuto: false,
             una_corda: 0.0,
             hardness: 1.0,
+            own: [OwnNote::default(); 128],
+            owner: std::array::from_fn(|k| k as u8),
             wheel: 0.0,
             bend: 1.0,
             clock: 0,
@@ -647,24 +671,20 @@ impl Synth {
                 }
             }
             Event::KeyVolume { key, gain } if gain.is_finite() => {
-                if let Some((k, _)) = self.current.route(key) {
-                    k.set_volume(f64::from(gain));
-                }
+                self.own[key as usize & 127].volume = f64::from(gain);
+                self.apply_own(key);
             }
             Event::KeyPan { key, pan } if pan.is_finite() => {
-                if let Some((k, _)) = self.current.route(key) {
-                    k.set_pan(f64::from(pan));
-                }
+                self.own[key as usize & 127].pan = f64::from(pan);
+                self.apply_own(key);
             }
             Event::KeyHammer { key, hardness, position } if hardness.is_finite() && position.is_finite() => {
-                if let Some((k, _)) = self.current.route(key) {
-                    k.set_hammer(f64::from(hardness), f64::from(position));
-                }
+                self.own[key as usize & 127].hammer = (f64::from(hardness), f64::from(position));
+                self.apply_own(key);
             }
             Event::KeyBend { key, semitones } if semitones.is_finite() => {
-                if let Some((k, _)) = self.current.route(key) {
-                    k.set_tune(2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0));
-                }
+                self.own[key as usize & 127].tune = 2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0);
+                self.apply_own(key);
             }
             Event::PitchBend(v) if !v.is_nan() => {
                 self.wheel = (v as f64).clamp(-1.0, 1.0);
@@ -701,11 +721,14 @@ impl Synth {
                 self.hardness = 1.0;
                 self.wheel = 0.0;
                 self.bend = 1.0;
+                self.own = [OwnNote::default(); 128];
+                self.owner = std::array::from_fn(|k| k as u8);
                 for k in self.current.keys.iter_mut().flatten() {
                     k.set_tune(1.0);
                     k.set_volume(1.0);
                     k.set_hammer(1.0, 1.0);
-                    k.center();
+                    // (A key fading out glides back, a silent one is there at once.)
+                    k.set_pan(0.0);
                 }
             }
         }
@@ -731,9 +754,19 @@ impl Synth {
             self.make_room();
         }
         let touch = self.controls.touch(self.current.touch, velocity);
+        // Strings shared with another MIDI key take this key's own tuning,
+        // volume, place and hammer.
+        if let Some((key, _)) = self.current.route(midi_key) {
+            let home = key.midi_key() as usize & 127;
+            if self.owner[home] != midi_key {
+                self.owner[home] = midi_key;
+                self.apply_own(midi_key);
+            }
+        }
         // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
         let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
-        let (una_corda, bend, bebung, noise) = (self.una_corda, self.bend, self.controls.bebung_cents, self.controls.noise());
+        let (una_corda, bend, bebung, noise) =
+            (self.una_corda, self.bend, self.controls.bebung_cents, self.controls.noise());
         let Some((key, note)) = self.current.route(midi_key) else { return };
         key.set_bebung(bebung);
         key.set_noise(noise);
@@ -745,12 +778,27 @@ impl Synth {
     /// `midi_key` comes up with release `velocity` (0 or unknown: MIDI's
     /// default, 64, as many keyboards send 0 for a release they do not measure).
     fn note_off(&mut self, midi_key: u8, velocity: f32) {
-        let velocity = if velocity > 0.0 && velocity.is_finite() { (velocity as f64).min(1.0) } else { DEFAULT_RELEASE };
+        let velocity =
+            if velocity > 0.0 && velocity.is_finite() { (velocity as f64).min(1.0) } else { DEFAULT_RELEASE };
         let (sustain, noise) = (self.sustain, self.controls.noise());
         if let Some((key, note)) = self.current.route(midi_key) {
             key.set_noise(noise);
             key.release(note, velocity, sustain);
         }
+    }
+
+    /// Hand `midi_key`'s own tuning, volume, place and hammer to its strings,
+    /// if they are its now.
+    fn apply_own(&mut self, midi_key: u8) {
+        let own = self.own[midi_key as usize & 127];
+        let Some((key, _)) = self.current.route(midi_key) else { return };
+        if self.owner[key.midi_key() as usize & 127] != midi_key {
+            return;
+        }
+        key.set_tune(own.tune);
+        key.set_volume(own.volume);
+        key.set_pan(own.pan);
+        key.set_hammer(own.hammer.0, own.hammer.1);
     }
 
     /// Below the polyphony cap, or steal: the quietest released key first, else the quietest.

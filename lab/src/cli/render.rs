@@ -99,10 +99,17 @@ pub struct RenderArgs {
     /// Play channel 10 too (ignored by default: General MIDI keeps drums there).
     #[arg(long)]
     pub include_channel_10: bool,
-    /// The song is MPE: channels 2-16 bend their own notes over this many
-    /// semitones each way (48 if no number is given) and set their timbre
-    /// (CC74: the felt's hardness); channel 1 bends all
-    #[arg(long, value_name = "SEMITONES", num_args = 0..=1, default_missing_value = "48", allow_negative_numbers = true)]
+    /// The song is MPE: channels 2-16 (10 too) bend their own notes over this
+    /// many semitones each way (48 unless given, as --mpe=24) and set their
+    /// timbre (CC74: the felt's hardness); channel 1 bends all
+    #[arg(
+        long,
+        value_name = "SEMITONES",
+        num_args = 0..=1,
+        require_equals = true,
+        default_missing_value = "48",
+        allow_negative_numbers = true
+    )]
     pub mpe: Option<f64>,
     /// Print nothing on success (and show no progress bar).
     #[arg(long, short)]

@@ -61,6 +61,8 @@ pub struct PanelKeyboard {
     typed_velocity: u8,
     /// Where the keyboard was last drawn.
     pub(super) drawn: Rect,
+    /// The space bar holds the sustain pedal.
+    space_held: bool,
 }
 
 impl PanelKeyboard {
@@ -72,6 +74,7 @@ impl PanelKeyboard {
             typed_c: 60,
             typed_velocity: 96,
             drawn: Rect::NOTHING,
+            space_held: false,
         }
     }
 
@@ -155,9 +158,24 @@ impl PanelKeyboard {
         }
     }
 
+    /// Let go of whatever the computer's keys hold (their key-ups will not
+    /// come: a text field took the keyboard, or the window lost it).
+    pub fn let_go_of_typed(&mut self) {
+        for (_, midi_key) in self.typed.drain(..) {
+            self.link.release(midi_key);
+        }
+        if std::mem::take(&mut self.space_held) {
+            self.link.set_pedal_from_panel(Pedal::Sustain, 0.0);
+        }
+    }
+
     /// Play the computer's keys (the standalone calls this each frame unless a
     /// text field has the keyboard).
     pub fn type_keys(&mut self, ui: &Ui) {
+        if !ui.input(|i| i.focused) {
+            self.let_go_of_typed();
+            return;
+        }
         let events = ui.input(|i| i.events.clone());
         for event in events {
             let egui::Event::Key { key, pressed, repeat: false, .. } = event else { continue };
@@ -167,6 +185,7 @@ impl PanelKeyboard {
                 (egui::Key::C, true) => self.typed_velocity = self.typed_velocity.saturating_sub(16).max(1),
                 (egui::Key::V, true) => self.typed_velocity = (self.typed_velocity + 16).min(127),
                 (egui::Key::Space, down) => {
+                    self.space_held = down;
                     self.link.set_pedal_from_panel(Pedal::Sustain, if down { 1.0 } else { 0.0 })
                 }
                 (key, true) => {
@@ -185,6 +204,16 @@ impl PanelKeyboard {
                     }
                 }
             }
+        }
+    }
+}
+
+impl Drop for PanelKeyboard {
+    /// The panel closing lets go of what it holds (the pedals clicked down stay).
+    fn drop(&mut self) {
+        self.let_go_of_typed();
+        if let Some(key) = self.pointer_key.take() {
+            self.link.release(key);
         }
     }
 }

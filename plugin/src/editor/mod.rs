@@ -138,8 +138,12 @@ impl StruckEditor {
             });
         });
         egui::CentralPanel::default().show(ui, |ui| self.physics(ui));
-        if standalone::is_standalone() && !ui.ctx().egui_wants_keyboard_input() {
-            self.keys.type_keys(ui);
+        if standalone::is_standalone() {
+            if ui.ctx().egui_wants_keyboard_input() {
+                self.keys.let_go_of_typed();
+            } else {
+                self.keys.type_keys(ui);
+            }
         }
     }
 
@@ -485,7 +489,7 @@ mod tests {
         let link = Arc::new(KeyboardLink::default());
         let mut keyboard = keys::PanelKeyboard::new(link.clone());
         let ctx = egui::Context::default();
-        let mut typed = |events: Vec<(egui::Key, bool)>| {
+        let typed = |keyboard: &mut keys::PanelKeyboard, events: Vec<(egui::Key, bool)>| {
             let events = events
                 .into_iter()
                 .map(|(key, pressed)| egui::Event::Key {
@@ -499,12 +503,25 @@ mod tests {
             let _ = ctx.run_ui(egui::RawInput { events, ..Default::default() }, |ui| keyboard.type_keys(ui));
         };
         // A is C4, W C#4, K C5; X an octave up; space the sustain.
-        typed(vec![(egui::Key::A, true), (egui::Key::W, true), (egui::Key::Space, true)]);
+        typed(&mut keyboard, vec![(egui::Key::A, true), (egui::Key::W, true), (egui::Key::Space, true)]);
         assert!(link.panel_holds(60) && link.panel_holds(61));
         assert_eq!(link.panel_pedal(crate::keyboard::Pedal::Sustain), 1.0);
-        typed(vec![(egui::Key::A, false), (egui::Key::X, true), (egui::Key::K, true), (egui::Key::Space, false)]);
+        typed(
+            &mut keyboard,
+            vec![(egui::Key::A, false), (egui::Key::X, true), (egui::Key::K, true), (egui::Key::Space, false)],
+        );
         assert!(!link.panel_holds(60) && link.panel_holds(61) && link.panel_holds(84));
         assert_eq!(link.panel_pedal(crate::keyboard::Pedal::Sustain), 0.0);
+        // Their key-ups will not come (a text field took the keyboard, the
+        // window lost it, the panel closed): let go.
+        typed(&mut keyboard, vec![(egui::Key::Space, true)]);
+        keyboard.let_go_of_typed();
+        assert!(!link.panel_holds(61) && !link.panel_holds(84));
+        assert_eq!(link.panel_pedal(crate::keyboard::Pedal::Sustain), 0.0);
+        typed(&mut keyboard, vec![(egui::Key::S, true)]);
+        assert!(link.panel_holds(74), "D5 (the octave up from C4)");
+        drop(keyboard);
+        assert!(!link.panel_holds(74), "closing the panel lets go");
     }
 
     #[test]

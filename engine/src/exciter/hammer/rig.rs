@@ -38,6 +38,7 @@ pub struct Substep {
 }
 
 /// What a hammer needs for one sub-step size.
+#[derive(PartialEq)]
 struct FineDrive {
     drive: DriveTable,
     /// The residual's exp(-h / (c R)) over the sub-step.
@@ -45,6 +46,7 @@ struct FineDrive {
 }
 
 /// What a hammer at one strike point needs, for every step size.
+#[derive(PartialEq)]
 struct HammerTables {
     position: f64,
     audio: DriveTable,
@@ -131,6 +133,12 @@ impl HammerRig {
     /// The strike point, as a fraction of the length from the bridge.
     pub fn position(&self) -> f64 {
         self.tables.position
+    }
+
+    /// Whether its tables are `other`'s, to the bit.
+    #[cfg(test)]
+    pub(crate) fn same_tables(&self, other: &Self) -> bool {
+        self.tables == other.tables && self.shape == other.shape
     }
 
     /// Whether a strike is in play.

@@ -545,6 +545,11 @@ mod tests {
         link.start_learning();
         apply_learnt(link.stop_learning(), &params, &gui.param_setter());
         assert_eq!(params.touch.velocity_ceiling.value(), 105);
+        // The touch curve says whose range it is.
+        let mut editor = StruckEditor::new(params, Arc::new(Mutex::new(None)));
+        editor.set_gui_context(GuiContext::new(Arc::new(Host::default())));
+        let out = frame(&egui::Context::default(), &mut editor);
+        assert!(drew_text(&out, "yours 30 to 105"));
     }
 
     /// Whether a frame drew `text` anywhere.

@@ -350,5 +350,12 @@ pub fn touch_curve(ui: &mut Ui, controls: &Controls, kind: InstrumentKind, size:
         small(),
         AXIS_TEXT,
     );
-    painter.text(rect.right_bottom(), Align2::RIGHT_BOTTOM, "velocity 1 to 127", small(), AXIS_TEXT);
+    // The player's own range, when learnt or set: the curve runs flat outside it.
+    let (floor, ceiling) = (controls.velocity_floor, controls.velocity_ceiling);
+    let axis = if (floor, ceiling) == (0.0, 1.0) {
+        "velocity 1 to 127".to_string()
+    } else {
+        format!("velocity 1 to 127, yours {:.0} to {:.0}", floor * 127.0, ceiling * 127.0)
+    };
+    painter.text(rect.right_bottom(), Align2::RIGHT_BOTTOM, axis, small(), AXIS_TEXT);
 }

@@ -866,6 +866,11 @@ impl Key {
         self.blocks_since_trade = 0;
         let pitch = self.pitch(bend);
         self.set_poles(pitch);
+        // Where its own strike point puts the hammer (or plectrum) built at `position`.
+        let factor = self.hammer_position;
+        let own_point = |position: f64| {
+            if factor == 1.0 { position } else { (position * factor).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT) }
+        };
         let played = &self.notes[note];
         let strings = &mut self.strings[played.struck.clone()];
         match played.exciter {
@@ -879,12 +884,7 @@ impl Key {
                 // rest with its less worn, softer felt. Each string takes the
                 // hammer's mass and felt in proportion to the width it meets.
                 let shift = if strings.len() >= 2 { una_corda.clamp(0.0, 1.0) } else { 0.0 };
-                let hardness = hardness * self.hammer_hardness;
-                let position = if self.hammer_position == 1.0 {
-                    position
-                } else {
-                    (position * self.hammer_position).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT)
-                };
+                let (hardness, position) = (hardness * self.hammer_hardness, own_point(position));
                 let soft = 1.0 - una_corda.clamp(0.0, 1.0) * (1.0 - UNA_CORDA_STIFFNESS);
                 let width = strings.len() as f64 - shift;
                 let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
@@ -906,11 +906,7 @@ impl Key {
             }
             ExciterDesign::Pluck { position } => {
                 // The plectrum's own point, as the hammer's.
-                let position = if self.hammer_position == 1.0 {
-                    position
-                } else {
-                    (position * self.hammer_position).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT)
-                };
+                let position = own_point(position);
                 for s in strings {
                     s.pluck(PluckSpec { displacement_m: touch * 1e-3, position });
                     s.release_exciter();

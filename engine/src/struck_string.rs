@@ -458,30 +458,14 @@ impl StruckString {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::string::damping::Damping;
-    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
-
-    fn string() -> StringModes {
-        StringSpec {
-            length_m: 0.4,
-            tuning: Tuning::TensionN(191.0),
-            mass: Mass::PerLengthKgM(1.54e-3),
-            stiffness: Stiffness::Inharmonicity(3e-4),
-            damping: Damping::UniformQ(1000.0),
-            max_frequency_hz: 12_000.0,
-            outer_diameter_m: None,
-        }
-        .build()
-        .unwrap()
-    }
-
     /// A strike or pluck at a new point moves the string's tables there in
     /// place: they are, to the bit, the tables built there afresh, and back
     /// again the ones it had.
     #[test]
     fn tables_moved_in_place_are_the_ones_built_there() {
         let at = |position: f64, pluck: bool| {
-            let mut s = StruckString::with_substep_counts(string(), 48_000.0, &[2, 8]);
+            let mut s =
+                StruckString::with_substep_counts(crate::string::test_string(3e-4, 12_000.0), 48_000.0, &[2, 8]);
             if pluck {
                 s.prepare_pluck(position)
             } else {

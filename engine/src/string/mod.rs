@@ -257,6 +257,24 @@ impl StringModes {
     }
 }
 
+/// A treble-like plain string for the crate's tests: 0.4 m at 191 N and
+/// 1.54 g/m (about 440 Hz), inharmonicity `b` (0: flexible), Q 1000, modes
+/// up to `max_hz`.
+#[cfg(test)]
+pub(crate) fn test_string(b: f64, max_hz: f64) -> StringModes {
+    StringSpec {
+        length_m: 0.4,
+        tuning: Tuning::TensionN(191.0),
+        mass: Mass::PerLengthKgM(1.54e-3),
+        stiffness: if b > 0.0 { Stiffness::Inharmonicity(b) } else { Stiffness::Flexible },
+        damping: damping::Damping::UniformQ(1000.0),
+        max_frequency_hz: max_hz,
+        outer_diameter_m: None,
+    }
+    .build()
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

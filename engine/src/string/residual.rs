@@ -153,22 +153,7 @@ impl Residual {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::string::damping::Damping;
-    use crate::string::{Mass, Stiffness, StringSpec, Tuning};
-
-    fn string(b: f64, max_hz: f64) -> StringModes {
-        StringSpec {
-            length_m: 0.4,
-            tuning: Tuning::TensionN(191.0),
-            mass: Mass::PerLengthKgM(1.54e-3),
-            stiffness: if b > 0.0 { Stiffness::Inharmonicity(b) } else { Stiffness::Flexible },
-            damping: Damping::UniformQ(1000.0),
-            max_frequency_hz: max_hz,
-            outer_diameter_m: None,
-        }
-        .build()
-        .unwrap()
-    }
+    use crate::string::test_string as string;
 
     /// Direct modal sum of phi^2 / (m omega^2) over n = 1..count.
     fn direct_sum(s: &StringModes, position: f64, count: usize) -> f64 {

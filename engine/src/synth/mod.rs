@@ -470,6 +470,16 @@ impl Default for OwnNote {
     }
 }
 
+impl OwnNote {
+    /// Give `key`'s strings this note's shaping.
+    fn shape(self, key: &mut Key) {
+        key.set_tune(self.tune);
+        key.set_volume(self.volume);
+        key.set_pan(self.pan);
+        key.set_hammer(self.hammer.0, self.hammer.1);
+    }
+}
+
 impl Synth {
     /// A synth playing `instrument`, and the reader of its live view. Allocates.
     pub fn new(instrument: Box<Instrument>) -> (Self, Scope) {
@@ -723,13 +733,8 @@ impl Synth {
                 self.bend = 1.0;
                 self.own = [OwnNote::default(); 128];
                 self.owner = std::array::from_fn(|k| k as u8);
-                for k in self.current.keys.iter_mut().flatten() {
-                    k.set_tune(1.0);
-                    k.set_volume(1.0);
-                    k.set_hammer(1.0, 1.0);
-                    // (A key fading out glides back, a silent one is there at once.)
-                    k.set_pan(0.0);
-                }
+                // (A key fading out glides back, a silent one is there at once.)
+                self.current.keys.iter_mut().flatten().for_each(|k| OwnNote::default().shape(k));
             }
         }
     }
@@ -795,10 +800,7 @@ impl Synth {
         if self.owner[key.midi_key() as usize & 127] != midi_key {
             return;
         }
-        key.set_tune(own.tune);
-        key.set_volume(own.volume);
-        key.set_pan(own.pan);
-        key.set_hammer(own.hammer.0, own.hammer.1);
+        own.shape(key);
     }
 
     /// Below the polyphony cap, or steal: the quietest released key first, else the quietest.

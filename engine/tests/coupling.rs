@@ -159,14 +159,18 @@ fn after_a_staccato_note_the_undamped_treble_rings_on_at_its_own_pitch() {
     assert!((sixth - g6).abs() >= 2.0, "G6 {g6} Hz, C4's 6th partial {sixth} Hz");
     assert!((a.top_hz - g6).abs() <= 1.0, "{} Hz against G6's {g6} Hz", a.top_hz);
     assert!(a.ring_db > a.without_db + 40.0, "{:.1} against {:.1} dB", a.ring_db, a.without_db);
-    // The coupling issue asks for -70 dB; at velocity 80 this is -78 dB
+    // The coupling issue asks for -70 dB; at velocity 80 this is -75 dB
     // (-72 dB over 1.5-2.5 s): not met at mezzo-forte.
-    assert!(a.ring_db >= -80.0, "{:.1} dB", a.ring_db);
-    // Unstretched, G6 lies 10 Hz under the partial and its answer stays under
-    // what wakes a silent key (30 dB over the silence): it stays silent.
+    assert!(a.ring_db >= -77.0, "{:.1} dB", a.ring_db);
+    // Unstretched, G6 lies 10 Hz under the partial: it answers, more faintly.
     let et = treble_answer(0.0, 80.0 / 127.0);
     println!("the same in equal temperament: {:.1} dB", et.ring_db);
-    assert!(et.ring_db < a.ring_db, "{:.1} against {:.1} dB", et.ring_db, a.ring_db);
+    assert!(et.ring_db < a.ring_db - 6.0, "{:.1} against {:.1} dB", et.ring_db, a.ring_db);
+    // Softer, the treble still answers: a drive 10 dB over the silence wakes
+    // a key (at 30 dB, velocity 64 woke none).
+    let soft = treble_answer(1.0, 64.0 / 127.0);
+    println!("C4 staccato at velocity 64: {:.1} dB ({:.1} dB without sympathy)", soft.ring_db, soft.without_db);
+    assert!(soft.ring_db > soft.without_db + 40.0 && soft.ring_db < a.ring_db, "{:.1} against {:.1} dB", soft.ring_db, a.ring_db);
 }
 
 #[test]

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use struck_engine::exciter::hammer::HammerSpec;
 use struck_engine::exciter::hammer::contact::ContactLaw;
-use struck_engine::modal_bank::{LANES, ModalBank, StepTable};
+use struck_engine::modal_bank::{FreeGather, LANES, ModalBank, StepTable};
 use struck_engine::string::damping::Damping;
 use struck_engine::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
@@ -91,6 +91,27 @@ pub fn free_throughput(count: usize, block: usize, min_time: Duration) -> f64 {
         }
         samples += 16 * block;
         std::hint::black_box(&out);
+    }
+    (count * samples) as f64 / start.elapsed().as_secs_f64()
+}
+
+/// Free-mode throughput in the gathered real form the synth runs a key's free
+/// strings in ([`FreeGather`]), mode-samples per second, over at least
+/// `min_time`: the synthetic bank gathered once and run `block` samples at a
+/// time, as a key's gathering runs over its control blocks.
+pub fn gathered_throughput(count: usize, block: usize, min_time: Duration) -> f64 {
+    let (bank, step) = synthetic_bank(count, 48_000.0);
+    let mut gather = FreeGather::with_room(count);
+    bank.gather_free(&step, &mut gather).expect("room for the bank");
+    let mut acc = vec![[0.0; LANES]; block];
+    let mut samples = 0usize;
+    let start = Instant::now();
+    while start.elapsed() < min_time {
+        for _ in 0..16 {
+            gather.run_fresh(&mut acc);
+        }
+        samples += 16 * block;
+        std::hint::black_box(&acc);
     }
     (count * samples) as f64 / start.elapsed().as_secs_f64()
 }

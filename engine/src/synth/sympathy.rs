@@ -87,8 +87,13 @@ struct Slot {
 /// it is in, every partial's slot, and the scratch of a trade: each slot's
 /// summed phasor and what it takes.
 pub(crate) struct Sympathy {
-    pairs: Vec<Pair>,
-    by_key: Vec<Vec<u32>>,
+    /// How many pairs there are.
+    count: usize,
+    /// For each key, a copy of every pair it is in, in the order of the other
+    /// key: a trade reads a key's pairs one after the other (looked up
+    /// through a list of indices, each pair was a miss of the cache, a fifth
+    /// of a pedalled render's time).
+    by_key: Vec<Vec<Pair>>,
     /// For each key, its pairs grouped by the other key: (other, range in
     /// `by_key[key]`), so that the pairs with a key that cannot ring are
     /// passed over together.
@@ -127,7 +132,7 @@ impl Sympathy {
     /// No trading (strings on the seed's rigid bridge).
     pub fn none() -> Self {
         Self {
-            pairs: Vec::new(),
+            count: 0,
             by_key: vec![Vec::new(); 128],
             by_other: vec![Vec::new(); 128],
             slots: Vec::new(),
@@ -209,7 +214,7 @@ impl Sympathy {
                 });
             }
         }
-        let mut by_key = vec![Vec::new(); 128];
+        let mut by_key: Vec<Vec<u32>> = vec![Vec::new(); 128];
         for (n, p) in pairs.iter().enumerate() {
             by_key[p.key_a as usize].push(n as u32);
             by_key[p.key_b as usize].push(n as u32);
@@ -235,8 +240,9 @@ impl Sympathy {
             .map(|e| Slot { key: e.key, strings: e.port.strings, partial: e.port.partial as u16 })
             .collect();
         let n = slots.len();
+        let by_key = by_key.iter().map(|list| list.iter().map(|&n| pairs[n as usize]).collect()).collect();
         Self {
-            pairs,
+            count: pairs.len(),
             by_key,
             by_other,
             slots,
@@ -257,7 +263,7 @@ impl Sympathy {
 
     /// How many pairs of partials trade.
     pub fn len(&self) -> usize {
-        self.pairs.len()
+        self.count
     }
 
     /// One block's share of the trading among `keys` at `level` (0..=1 of
@@ -271,7 +277,7 @@ impl Sympathy {
     /// takes it at once. Allocates: no.
     pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64, phase: usize) {
         self.block += 1;
-        if level <= 0.0 || self.pairs.is_empty() {
+        if level <= 0.0 || self.count == 0 {
             self.drop_held();
             return;
         }
@@ -313,7 +319,7 @@ impl Sympathy {
                     continue;
                 }
                 for j in from as usize..to as usize {
-                    let p = self.pairs[self.by_key[k][j] as usize];
+                    let p = self.by_key[k][j];
                     let (a, b) = (p.a as usize, p.b as usize);
                     let (ka, kb) = (p.key_a as usize, p.key_b as usize);
                     if sounding[kb] {

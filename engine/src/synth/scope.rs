@@ -148,13 +148,21 @@ pub(super) fn channel() -> (ScopeWriter, Scope) {
 }
 
 impl ScopeWriter {
+    /// Whether anyone watches: the panel's side is still there. (An offline
+    /// render drops it, and the synth then neither follows a key nor cuts its
+    /// blocks finer for a strike.)
+    fn watched(&self) -> bool {
+        !self.frames.is_abandoned()
+    }
+
+    /// The key followed, while anyone watches.
     pub fn key(&self) -> Option<u8> {
-        self.key
+        self.key.filter(|_| self.watched())
     }
 
     /// Whether the contact force of a strike is being recorded.
     pub fn recording(&self) -> bool {
-        self.since_strike < CONTACT_SAMPLES
+        self.since_strike < CONTACT_SAMPLES && self.watched()
     }
 
     /// A key was struck: follow it, and record its contact force afresh.
@@ -244,5 +252,27 @@ impl ScopeWriter {
         if let Ok(chunk) = self.samples.write_chunk_uninit(n) {
             chunk.fill_from_iter(values.iter().copied());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With nobody watching (the panel's side dropped, as an offline render
+    /// does), the writer follows no key and records no strike: the synth then
+    /// neither brings the key's strings back from their gathering every block
+    /// nor cuts its blocks finer.
+    #[test]
+    fn nobody_watching_follows_no_key() {
+        let (mut writer, reader) = channel();
+        writer.struck(60);
+        assert_eq!(writer.key(), Some(60));
+        assert!(writer.recording());
+        drop(reader);
+        assert_eq!(writer.key(), None);
+        assert!(!writer.recording());
+        writer.struck(62);
+        assert_eq!(writer.key(), None);
     }
 }

@@ -186,7 +186,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     if crate::cleanup::interrupted() {
         return Err(Failure::interrupted());
     }
-    let (mut synth, _scope) = Synth::new(Box::new(instrument));
+    let (mut synth, _) = Synth::new(Box::new(instrument));
     synth.set_controls(controls);
 
     if !args.quiet && playable < notes {

@@ -475,7 +475,12 @@ fn bench_json_holds_every_figure_flat_and_nested() {
         "full_keyboard_all.load_fraction",
         "full_keyboard_all.worst_block_fraction",
         "full_keyboard_all.running_modes_mean",
+        "full_keyboard_all.chord20_block_fraction",
+        "chord10.worst_block_fraction",
+        "chord20.worst_block_fraction",
         "kernel.ns_per_mode_sample",
+        "kernel.complex.ns_per_mode_sample",
+        "kernel.complex.fraction_of_fma_probe",
         "kernel.fraction_of_fma_probe",
         "kernel.fma_probe_per_s",
         "chord32.realtime_factor",
@@ -491,6 +496,10 @@ fn bench_json_holds_every_figure_flat_and_nested() {
     }
     assert!(number("full_keyboard.running_modes_mean") <= number("full_keyboard.modes"));
     assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord10_block_fraction"));
+    assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord20_block_fraction"));
+    assert_eq!(figure("chord20.worst_block_fraction"), figure("full_keyboard_all.chord20_block_fraction"));
+    assert_eq!(figure("chord10.worst_block_fraction"), figure("full_keyboard_all.chord10_block_fraction"));
+    assert_eq!(report["chord20"]["keys"], 20);
     let silent = figure("after_release.silent_after_s");
     assert!(silent.is_null() || silent.as_f64().is_some_and(|s| s > 0.0), "{silent}");
     assert_eq!(report["sample_rate_hz"], 48_000);
@@ -504,7 +513,17 @@ fn bench_json_holds_every_figure_flat_and_nested() {
 
     // Each goal: its figure, the bound, and whether it is met (not which).
     let goals = report["goals"].as_object().unwrap_or_else(|| panic!("no goals: {text}"));
-    for goal in ["full_keyboard_load", "full_keyboard_all_load", "worst_block", "kernel", "chord32", "idle", "after_release_load"] {
+    for goal in [
+        "full_keyboard_load",
+        "full_keyboard_all_load",
+        "worst_block",
+        "kernel",
+        "chord10_block",
+        "chord20_block",
+        "chord32",
+        "idle",
+        "after_release_load",
+    ] {
         assert!(goals.contains_key(goal), "no goal {goal}: {text}");
     }
     for (name, goal) in goals {
@@ -513,6 +532,7 @@ fn bench_json_holds_every_figure_flat_and_nested() {
         assert_eq!(figure(&format!("goals.{name}.pass")), goal["pass"]);
     }
     assert_eq!(figure("goals.kernel.value"), figure("kernel.fraction_of_fma_probe"));
+    assert_eq!(figure("goals.chord20_block.value"), figure("chord20.worst_block_fraction"));
     let met = goals.values().filter(|g| g["pass"] == true).count();
     assert_eq!(report["goals_met"], met);
     assert_eq!(report["all_goals_met"], met == goals.len());

@@ -42,8 +42,14 @@ const SAMPLE_RATE_HZ: f64 = workload::SAMPLE_RATE_HZ;
 const BLOCK: usize = workload::BLOCK;
 /// Modes in the kernel's synthetic bank (a full keyboard's scale, after culling).
 const KERNEL_MODES: usize = 10_240;
-/// Multiply-adds one mode-sample needs at least: one complex multiply.
-const FMAS_PER_MODE_SAMPLE: f64 = 4.0;
+/// The multiply-add units' operations one mode-sample takes in the gathered
+/// real form the synth runs free strings in: a multiply and a multiply-add
+/// (the sum into the bridge force is an add, which this machine does on other
+/// units).
+const OPS_PER_MODE_SAMPLE: f64 = 2.0;
+/// Multiply-adds one mode-sample takes as a complex phasor (one complex
+/// multiply): the loop a string runs alone in.
+const FMAS_PER_COMPLEX_MODE_SAMPLE: f64 = 4.0;
 /// How long the 32-key chord is held (the goal is stated for 10 s).
 const CHORD32_HELD_S: f64 = 10.0;
 /// Keys of the full-keyboard workload.
@@ -52,10 +58,13 @@ const PIANO_KEYS: usize = 88;
 /// The goals (issue 6). Fractions are of one core.
 const FULL_KEYBOARD_LOAD_MAX: f64 = 0.15;
 /// The same with sympathetic strings, phantom partials and the action's sounds
-/// on too (issue 17).
-const FULL_KEYBOARD_ALL_LOAD_MAX: f64 = 0.12;
+/// on too (issue 17; issue 20 asks for 10 %).
+const FULL_KEYBOARD_ALL_LOAD_MAX: f64 = 0.10;
 const WORST_BLOCK_MAX: f64 = 0.40;
-const KERNEL_FRACTION_MIN: f64 = 0.5;
+/// The 10-key chord's block with everything on (issue 20).
+const CHORD10_ALL_BLOCK_MAX: f64 = 0.25;
+/// The gathered free loop against the FMA probe (issue 20).
+const KERNEL_FRACTION_MIN: f64 = 0.9;
 const CHORD32_FACTOR_MIN: f64 = 100.0;
 const IDLE_LOAD_MAX: f64 = 0.01;
 
@@ -93,29 +102,40 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let mut goals = Goals::default();
 
     // The machine's bound and the kernel against it.
-    let fma_per_s = perf::fma_probe(probe_time);
-    let mode_samples_per_s = perf::free_throughput(KERNEL_MODES, BLOCK, kernel_time);
+    // Each rate the fastest of `runs` short runs, taken in turn (a shared
+    // machine slows one now and then).
+    let (mut fma_per_s, mut mode_samples_per_s, mut complex_per_s) = (0.0f64, 0.0f64, 0.0f64);
+    for _ in 0..runs {
+        fma_per_s = fma_per_s.max(perf::fma_probe(probe_time / runs as u32));
+        mode_samples_per_s = mode_samples_per_s.max(perf::gathered_throughput(KERNEL_MODES, BLOCK, kernel_time / runs as u32));
+        complex_per_s = complex_per_s.max(perf::free_throughput(KERNEL_MODES, BLOCK, kernel_time / runs as u32));
+    }
     let ns_per_mode_sample = 1e9 / mode_samples_per_s;
-    let fraction_of_fma_probe = (FMAS_PER_MODE_SAMPLE * 1e9 / fma_per_s) / ns_per_mode_sample;
+    let fraction_of_fma_probe = OPS_PER_MODE_SAMPLE * mode_samples_per_s / fma_per_s;
+    let complex_fraction = FMAS_PER_COMPLEX_MODE_SAMPLE * complex_per_s / fma_per_s;
     out.line(format!("FMA probe: {fma_per_s:.3e} f64 multiply-adds/s on this thread"));
     out.blank();
     out.line(format!(
-        "kernel: {KERNEL_MODES} free modes, {BLOCK}-sample blocks: {ns_per_mode_sample:.3} ns per mode-sample ({mode_samples_per_s:.3e}/s)"
+        "kernel: {KERNEL_MODES} free modes gathered as a key's strings are, in real form, {BLOCK}-sample blocks: {ns_per_mode_sample:.3} ns per mode-sample ({mode_samples_per_s:.3e}/s)"
     ));
     let pass = goals.check("kernel", fraction_of_fma_probe, AtLeast, KERNEL_FRACTION_MIN);
     out.goal(
-        "fraction of the FMA probe (4 per mode-sample)",
+        "fraction of the FMA probe (2 per mode-sample)",
         format!("{fraction_of_fma_probe:.2}"),
         format!(">= {KERNEL_FRACTION_MIN}"),
         pass,
     );
+    out.line(format!(
+        "  as complex phasors (a string running alone): {:.3} ns per mode-sample, {complex_fraction:.2} of the probe (4 per mode-sample)",
+        1e9 / complex_per_s
+    ));
 
     // The full keyboard, held and released.
     out.blank();
     let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off);
     let period_ms = 1e3 * BLOCK as f64 / SAMPLE_RATE_HZ;
     out.line(format!(
-        "full keyboard: {PIANO_KEYS} keys struck one per block and held {:.2} s, pedal down; a 10-key chord halfway",
+        "full keyboard: {PIANO_KEYS} keys struck one per block and held {:.2} s, pedal down; a 10-key chord (velocity 102) halfway, a 20-key one (120) at three quarters",
         keyboard.held_s
     ));
     out.line(format!(
@@ -158,7 +178,16 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let pass = goals.check("full_keyboard_all_load", all.load_fraction, Below, FULL_KEYBOARD_ALL_LOAD_MAX);
     out.goal("load", percent_of_core(all.load_fraction), format!("< {}", percent(FULL_KEYBOARD_ALL_LOAD_MAX)), pass);
     let pass = goals.check("full_keyboard_all_worst_block", all.worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal("worst block (the chord's included)", of_period(all.worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    out.goal("worst block (the chords' included)", of_period(all.worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    let pass = goals.check("chord10_block", all.chord_block_fraction, Below, CHORD10_ALL_BLOCK_MAX);
+    out.goal("the 10-key chord's worst block", of_period(all.chord_block_fraction), format!("< {}", percent(CHORD10_ALL_BLOCK_MAX)), pass);
+    let pass = goals.check("chord20_block", all.chord20_block_fraction, Below, WORST_BLOCK_MAX);
+    out.goal(
+        "the 20-key chord's",
+        of_period(all.chord20_block_fraction),
+        format!("< {}", percent(WORST_BLOCK_MAX)),
+        pass,
+    );
     out.line(after_release(&all));
 
     // The 32-note chord, offline.
@@ -231,6 +260,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "load_fraction": keyboard.load_fraction,
                 "worst_block_fraction": keyboard.worst_block_fraction,
                 "chord10_block_fraction": keyboard.chord_block_fraction,
+                "chord20_block_fraction": keyboard.chord20_block_fraction,
             },
             "full_keyboard_all": {
                 "keys": PIANO_KEYS,
@@ -239,7 +269,18 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "load_fraction": all.load_fraction,
                 "worst_block_fraction": all.worst_block_fraction,
                 "chord10_block_fraction": all.chord_block_fraction,
+                "chord20_block_fraction": all.chord20_block_fraction,
                 "after_release_load_fraction": all.after_release_load_fraction,
+            },
+            "chord10": {
+                "keys": workload::CHORD10.len(),
+                "velocity": (workload::VELOCITY * 127.0).round() as u8,
+                "worst_block_fraction": all.chord_block_fraction,
+            },
+            "chord20": {
+                "keys": workload::CHORD20.len(),
+                "velocity": (workload::CHORD20_VELOCITY * 127.0).round() as u8,
+                "worst_block_fraction": all.chord20_block_fraction,
             },
             "after_release": {
                 "release_s": keyboard.release_s,
@@ -254,8 +295,15 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "mode_samples_per_s": mode_samples_per_s,
                 "ns_per_mode_sample": ns_per_mode_sample,
                 "fma_probe_per_s": fma_per_s,
-                "fmas_per_mode_sample": FMAS_PER_MODE_SAMPLE,
+                "form": "gathered, real",
+                "ops_per_mode_sample": OPS_PER_MODE_SAMPLE,
                 "fraction_of_fma_probe": fraction_of_fma_probe,
+                "complex": {
+                    "mode_samples_per_s": complex_per_s,
+                    "ns_per_mode_sample": 1e9 / complex_per_s,
+                    "fmas_per_mode_sample": FMAS_PER_COMPLEX_MODE_SAMPLE,
+                    "fraction_of_fma_probe": complex_fraction,
+                },
             },
             "chord32": {
                 "held_s": CHORD32_HELD_S,

@@ -3,7 +3,8 @@
 //!
 //! - The full keyboard: every piano key struck (one per block, bottom to top)
 //!   and held with the sustain pedal down; halfway through, a 10-key chord is
-//!   struck on one sample; then every key and the pedal come up.
+//!   struck on one sample, and three quarters through a two-handed 20-key
+//!   fortissimo chord; then every key and the pedal come up.
 //! - A 32-key chord held for 10 s, rendered offline (512-sample blocks).
 //! - Silence: the piano with nothing played.
 //!
@@ -26,6 +27,16 @@ pub const VELOCITY: f32 = 102.0 / 127.0;
 pub const CHORD10: [u8; 10] = [48, 52, 55, 60, 64, 67, 72, 76, 79, 84];
 /// Where in its block the 10-key chord lands (any sample: not on a boundary).
 const CHORD10_OFFSET: u32 = 17;
+/// A pianist's two-handed fortissimo chord, 20 keys (about 60 strings in
+/// contact at once): C2 G2 C3 E3 G3 B3 | C4 D4 E4 G4 A4 C5 D5 E5 G5 A5 C6 E6 G6 C7.
+pub const CHORD20: [u8; 20] = [36, 43, 48, 52, 55, 59, 60, 62, 64, 67, 69, 72, 74, 76, 79, 81, 84, 88, 91, 96];
+/// MIDI velocity 120 (fortissimo), as a fraction.
+pub const CHORD20_VELOCITY: f32 = 120.0 / 127.0;
+/// Where in its block the 20-key chord lands.
+const CHORD20_OFFSET: u32 = 41;
+/// Blocks after a chord's strike in which its hammers are on the strings (the
+/// bass's contacts last a few milliseconds: a few blocks).
+const CHORD_BLOCKS: usize = 8;
 /// The comparison chord: C2 plus these intervals, then the same an octave and
 /// two octaves up; the first 32 notes are played.
 pub const CHORD32_INTERVALS: [u8; 12] = [0, 7, 12, 16, 19, 24, 28, 31, 36, 40, 43, 48];
@@ -102,6 +113,8 @@ pub struct KeyboardRun {
     pub worst_block_fraction: f64,
     /// Slowest block while the 10-key chord's hammers are on the strings.
     pub chord_block_fraction: f64,
+    /// Slowest block while the 20-key chord's hammers are on the strings.
+    pub chord20_block_fraction: f64,
     /// Load over the seconds after every key and the pedal came up.
     pub after_release_load_fraction: f64,
     /// Slowest block in that time.
@@ -121,6 +134,7 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
     let held_blocks = ((held_s / period_s).ceil() as usize).max(2 * 88);
     let release_blocks = ((release_s / period_s).ceil() as usize).max(1);
     let chord_block = held_blocks / 2;
+    let chord20_block = held_blocks * 3 / 4;
     let keys: Vec<u8> = InstrumentKind::Piano.key_range().collect();
     let mut timings = Timings { block_s: Vec::new(), total_s: 0.0 };
     let mut modes = 0;
@@ -144,6 +158,11 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
             if b == chord_block {
                 events.extend(
                     CHORD10.map(|key| TimedEvent::new(CHORD10_OFFSET, Event::NoteOn { key, velocity: VELOCITY })),
+                );
+            }
+            if b == chord20_block {
+                events.extend(
+                    CHORD20.map(|key| TimedEvent::new(CHORD20_OFFSET, Event::NoteOn { key, velocity: CHORD20_VELOCITY })),
                 );
             }
             if b == held_blocks {
@@ -180,8 +199,8 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
         running_modes_mean: running_sum / held_blocks as f64,
         load_fraction: mean(held.clone()),
         worst_block_fraction: worst(held),
-        // The chord's contacts last a few milliseconds: a few blocks.
-        chord_block_fraction: worst(chord_block..chord_block + 8),
+        chord_block_fraction: worst(chord_block..chord_block + CHORD_BLOCKS),
+        chord20_block_fraction: worst(chord20_block..chord20_block + CHORD_BLOCKS),
         after_release_load_fraction: mean(after.clone()),
         after_release_worst_block_fraction: worst(after),
         keys_left,
@@ -242,5 +261,14 @@ mod tests {
         assert_eq!(&chord[..12], &[36, 43, 48, 52, 55, 60, 64, 67, 72, 76, 79, 84]);
         assert_eq!(&chord[24..], &[60, 67, 72, 76, 79, 84, 88, 91]);
         assert!(chord.iter().all(|k| InstrumentKind::Piano.key_range().contains(k)));
+    }
+
+    #[test]
+    fn the_two_handed_chord_is_twenty_piano_keys() {
+        let mut keys = CHORD20.to_vec();
+        keys.dedup();
+        assert_eq!(keys.len(), 20);
+        assert!(keys.windows(2).all(|w| w[0] < w[1]));
+        assert!(keys.iter().all(|k| InstrumentKind::Piano.key_range().contains(k)));
     }
 }

@@ -1061,7 +1061,13 @@ impl Key {
             self.trade_through_bridge(floor_n);
         }
         let mut settled = true;
+        // A hammer in play is watched on its string's modes as they stand (the
+        // scan below brings them back in that case anyway).
+        if self.strings.iter().any(|s| !s.is_settled()) {
+            self.settle();
+        }
         for s in &mut self.strings {
+            s.watch_hammer();
             if s.hammer_gone(HAMMER_GONE_GAP_M, HAMMER_GONE_AFTER_S) {
                 s.release_exciter();
             }

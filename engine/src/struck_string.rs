@@ -236,6 +236,15 @@ impl StruckString {
         matches!(&self.exciter, Exciter::Hammer(rig) if rig.gone(gap_m, after_s))
     }
 
+    /// At a control tick (its modes back from any gathering): whether a
+    /// hammer in play flies clear of the string, which then turns freely
+    /// ([`Self::free_for`]) until the hammer is let go. Allocates: no.
+    pub fn watch_hammer(&mut self) {
+        if let Exciter::Hammer(rig) = &mut self.exciter {
+            rig.watch(&self.bank);
+        }
+    }
+
     /// Whether a hammer in play can never touch the string again if both are left
     /// to move freely: it is past its contact (no force for the sub-step hold),
     /// flying away, and already further back than the string at the strike point
@@ -369,10 +378,16 @@ impl StruckString {
     }
 
     /// Whether its modes turn freely over `out.len()` samples (no exciter in
-    /// play, or a tangent resting on it), adding a resting tangent's static
-    /// lift to `out`: then [`Self::accumulate_free`] without it, or a
+    /// play, a hammer flying clear of it, or a tangent resting on it), adding a
+    /// coasting hammer's share or a resting tangent's static lift to `out`: then [`Self::accumulate_free`] without it, or a
     /// gathering ([`ModalBank::gather_free`] with [`Self::audio`]), advances them.
     pub fn free_for(&mut self, out: &mut [f64]) -> bool {
+        if let Exciter::Hammer(rig) = &mut self.exciter
+            && rig.coasting()
+        {
+            rig.coast(self.audio.step_s, out);
+            return true;
+        }
         if let Exciter::Tangent(rig) = &self.exciter
             && let Some(to_m) = rig.resting_at_m()
         {
@@ -458,6 +473,50 @@ impl StruckString {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::exciter::hammer::contact::ContactLaw;
+
+    /// Once its hammer flies clear (checked at each 64-sample tick), a string
+    /// turns freely in blocks while the hammer stays in play; it plays what the
+    /// string stepped sample by sample plays, but for rounding, and its hammer
+    /// flies the same.
+    #[test]
+    fn a_string_turns_freely_once_its_hammer_flies_clear() {
+        let spec = HammerSpec::one_of(1, 0.006, ContactLaw { stiffness: 1e9, exponent: 2.5 }, 2.0, 0.12);
+        let string = || {
+            let mut s = StruckString::new(crate::string::test_string(3e-4, 12_000.0), 48_000.0, 4);
+            s.strike(spec);
+            s
+        };
+        const BLOCK: usize = 64;
+        let (mut stepped, mut coasting) = (string(), string());
+        let (mut a, mut b) = (vec![0.0; 40 * BLOCK], vec![0.0; 40 * BLOCK]);
+        for o in a.iter_mut() {
+            *o = stepped.tick().bridge_force_n;
+        }
+        let mut free_blocks = 0;
+        for block in b.chunks_mut(BLOCK) {
+            coasting.watch_hammer();
+            let mut acc = [[0.0; LANES]; BLOCK];
+            if coasting.accumulate_free(&mut acc, block) {
+                free_blocks += 1;
+                for (o, lanes) in block.iter_mut().zip(&acc) {
+                    *o += crate::modal_bank::lane_sum(lanes);
+                }
+            } else {
+                for o in block.iter_mut() {
+                    *o = coasting.tick().bridge_force_n;
+                }
+            }
+        }
+        // Clear within a few milliseconds of the strike, and in play throughout.
+        assert!(free_blocks >= 35, "{free_blocks} blocks free of 40");
+        assert!(coasting.hammer().is_some() && !coasting.is_settled());
+        let peak = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(worst <= 1e-12 * peak, "{worst} against {peak}");
+        let (ha, hb) = (stepped.hammer().unwrap(), coasting.hammer().unwrap());
+        assert!((ha.position_m - hb.position_m).abs() <= 1e-15 && ha.velocity_m_s == hb.velocity_m_s);
+    }
     /// A strike or pluck at a new point moves the string's tables there in
     /// place: they are, to the bit, the tables built there afresh, and back
     /// again the ones it had.

@@ -81,6 +81,25 @@ struct Strike {
     substepping: bool,
     quiet_samples: usize,
     time_s: f64,
+    /// Proved unable to touch the string again ([`HammerRig::clear`]) at the
+    /// last control tick: the string turns freely while the hammer flies on
+    /// ([`HammerRig::coast`]).
+    coasting: bool,
+}
+
+impl Strike {
+    /// A step of `h` with nothing touching: the hammer flies on to `eta_m`,
+    /// the omitted modes relax to `residual_m` (their dashpot taking the
+    /// difference) and the felt's memory fades.
+    fn fly_free(&mut self, residual: &Residual, h: f64, eta_m: f64, residual_m: f64) {
+        self.hammer.commit(h, eta_m, 0.0);
+        self.absorbed_j += residual.energy_j(self.residual_m) - residual.energy_j(residual_m);
+        self.residual_m = residual_m;
+        if let Some(memory) = self.memory.as_mut() {
+            memory.relax_free();
+        }
+        self.time_s += h;
+    }
 }
 
 /// A hammer's tables at one strike point, and its strike while one is in play.
@@ -111,7 +130,14 @@ impl HammerRig {
 
     /// The same tables for striking at `position` instead, in place (the
     /// string, bank and step sizes those were made for). Allocates: no.
-    pub fn move_to(&mut self, string: &StringModes, bank: &ModalBank, audio: &StepTable, fine: &[Substep], position: f64) {
+    pub fn move_to(
+        &mut self,
+        string: &StringModes,
+        bank: &ModalBank,
+        audio: &StepTable,
+        fine: &[Substep],
+        position: f64,
+    ) {
         if position == self.tables.position {
             return;
         }
@@ -167,6 +193,7 @@ impl HammerRig {
             substepping: true,
             quiet_samples: 0,
             time_s: 0.0,
+            coasting: false,
         });
     }
 
@@ -218,6 +245,45 @@ impl HammerRig {
         h.hammer.position_m + reach_m < 0.0
     }
 
+    /// Whether the hammer flies clear of its string, which then turns freely
+    /// ([`Self::coast`]).
+    pub fn coasting(&self) -> bool {
+        self.strike.as_ref().is_some_and(|d| d.coasting)
+    }
+
+    /// At a control tick, with `bank` up to date: bring a coasting strike's
+    /// compression up to date, then let the string turn freely from here if
+    /// the hammer can never touch it again ([`Self::clear`]), or step it
+    /// sample by sample again if it can (a drive through the bridge may have
+    /// moved it). The hammer stays in play until it is let go, as before: only
+    /// how the string is stepped changes, not what it does. Allocates: no.
+    pub fn watch(&mut self, bank: &ModalBank) {
+        let t = &self.tables;
+        let Some(d) = self.strike.as_mut() else { return };
+        if d.coasting {
+            d.compression_m = d.hammer.position_m - bank.observe(&t.audio) - d.residual_m;
+            d.felt = Felt { compression_m: d.compression_m, force_n: 0.0, energy_j: 0.0 };
+        }
+        let clear = self.clear(bank);
+        if let Some(d) = self.strike.as_mut() {
+            d.coasting = clear;
+        }
+    }
+
+    /// `h`-second samples, `out.len()` of them, of a coasting hammer: what
+    /// [`Self::tick`] does while nothing touches, but for the string's own
+    /// steps, which run freely elsewhere; the omitted modes' relaxing share
+    /// of the bridge force is added to `out`. Allocates: no.
+    pub fn coast(&mut self, h: f64, out: &mut [f64]) {
+        let t = &self.tables;
+        let Some(d) = self.strike.as_mut().filter(|d| d.coasting) else { return };
+        for o in out.iter_mut() {
+            let residual_m = t.residual.relax_audio * d.residual_m;
+            d.fly_free(&t.residual, h, d.hammer.predict_m(h), residual_m);
+            *o += t.residual.bridge_force_n(residual_m);
+        }
+    }
+
     /// The present state without stepping (a strike in play).
     pub fn current(&self, bank: &ModalBank) -> Option<Tick> {
         let d = self.strike.as_ref()?;
@@ -256,15 +322,9 @@ impl HammerRig {
             let residual_m = t.residual.relax_audio * d.residual_m;
             let compression_m = eta_hat - y_hat - residual_m;
             if compression_m <= 0.0 {
-                d.hammer.commit(h, eta_hat, 0.0);
-                d.absorbed_j += t.residual.energy_j(d.residual_m) - t.residual.energy_j(residual_m);
-                d.residual_m = residual_m;
+                d.fly_free(&t.residual, h, eta_hat, residual_m);
                 d.compression_m = compression_m;
                 d.felt = Felt { compression_m, force_n: 0.0, energy_j: 0.0 };
-                if let Some(memory) = d.memory.as_mut() {
-                    memory.relax_free();
-                }
-                d.time_s += h;
                 observer.step(d.time_s, compression_m, 0.0);
                 return Some(Tick {
                     contact_force_n: 0.0,

@@ -105,7 +105,10 @@ struct TrebleAnswer {
 }
 
 fn treble_answer(stretch: f64, velocity: f64) -> TrebleAnswer {
-    let events = [(0.0, Event::NoteOn { key: C4, velocity: velocity as f32 }), (0.15, Event::NoteOff { key: C4, velocity: 0.5 })];
+    let events = [
+        (0.0, Event::NoteOn { key: C4, velocity: velocity as f32 }),
+        (0.15, Event::NoteOff { key: C4, velocity: 0.5 }),
+    ];
     let mut s = tuned_synth(InstrumentKind::Piano, Controls::default(), stretch);
     let ringing = play(&mut s, &events, 2.5);
     let mut s = tuned_synth(InstrumentKind::Piano, Controls { sympathy: 0.0, ..Controls::default() }, stretch);
@@ -170,7 +173,12 @@ fn after_a_staccato_note_the_undamped_treble_rings_on_at_its_own_pitch() {
     // a key (at 30 dB, velocity 64 woke none).
     let soft = treble_answer(1.0, 64.0 / 127.0);
     println!("C4 staccato at velocity 64: {:.1} dB ({:.1} dB without sympathy)", soft.ring_db, soft.without_db);
-    assert!(soft.ring_db > soft.without_db + 40.0 && soft.ring_db < a.ring_db, "{:.1} against {:.1} dB", soft.ring_db, a.ring_db);
+    assert!(
+        soft.ring_db > soft.without_db + 40.0 && soft.ring_db < a.ring_db,
+        "{:.1} against {:.1} dB",
+        soft.ring_db,
+        a.ring_db
+    );
 }
 
 #[test]
@@ -276,9 +284,13 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
         let mut levels: Vec<(f64, f64)> = sums
             .iter()
             .map(|&f| {
-                let nearest = transverse.iter().cloned().min_by(|a, b| (a - f).abs().total_cmp(&(b - f).abs())).unwrap();
+                let nearest =
+                    transverse.iter().cloned().min_by(|a, b| (a - f).abs().total_cmp(&(b - f).abs())).unwrap();
                 let own = level_near(&s1, bin, f, 1.5);
-                (20.0 * (own / level_near(&s0, bin, nearest, 0.6)).log10(), 20.0 * (own / level_near(&s0, bin, f, 1.5)).log10())
+                (
+                    20.0 * (own / level_near(&s0, bin, nearest, 0.6)).log10(),
+                    20.0 * (own / level_near(&s0, bin, f, 1.5)).log10(),
+                )
             })
             .collect();
         levels.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -318,7 +330,10 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     // The damper landing: a harder release lands harder.
     let mut landing = Vec::new();
     for release in [0.1f32, 1.0] {
-        let events = [(0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 }), (0.5, Event::NoteOff { key: C4, velocity: release })];
+        let events = [
+            (0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 }),
+            (0.5, Event::NoteOff { key: C4, velocity: release }),
+        ];
         let thud = added_by(InstrumentKind::Piano, Controls { damper_noise: 0.0, ..Controls::default() }, &events, 1.0);
         landing.push(peak_db(&thud) - note_db);
     }
@@ -326,7 +341,11 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     assert!(landing[1] > landing[0] + 12.0 && landing[1] < -10.0 && landing[1] > -70.0, "{landing:?}");
     // The dampers lifting together: the pedal alone sets the strings ringing.
     let lifted = play(&mut synth(InstrumentKind::Piano, Controls::default()), &[(0.0, Event::Sustain(1.0))], 1.0);
-    let quiet = play(&mut synth(InstrumentKind::Piano, Controls { pedal_noise: 0.0, ..Controls::default() }), &[(0.0, Event::Sustain(1.0))], 1.0);
+    let quiet = play(
+        &mut synth(InstrumentKind::Piano, Controls { pedal_noise: 0.0, ..Controls::default() }),
+        &[(0.0, Event::Sustain(1.0))],
+        1.0,
+    );
     let (lift_db, quiet_db) = (peak_db(&lifted) - note_db, peak_db(&quiet));
     println!("dampers lifting: {lift_db:.1} dB re the note's peak (off: {quiet_db:.1} dBFS)");
     assert!((-70.0..=-20.0).contains(&lift_db) && quiet_db < -200.0, "{lift_db:.1} {quiet_db:.1}");

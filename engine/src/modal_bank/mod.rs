@@ -145,7 +145,8 @@ impl StepTable {
         let (sin, cos) = (omega_rad_s * self.step_s).sin_cos();
         self.pole_re[index] = radius * cos;
         self.pole_im[index] = radius * sin;
-        (self.back_re[index], self.back_im[index], self.back_inv[index]) = inverse(self.pole_re[index], self.pole_im[index]);
+        (self.back_re[index], self.back_im[index], self.back_inv[index]) =
+            inverse(self.pole_re[index], self.pole_im[index]);
     }
 }
 
@@ -568,7 +569,12 @@ impl ModalBank {
     /// advanced freely there; returns where they lie, or None without room.
     pub fn gather_free(&self, step: &StepTable, gather: &mut FreeGather) -> Option<usize> {
         let n = self.running;
-        let poles = Poles { re: &step.pole_re[..n], im: &step.pole_im[..n], back_re: &step.back_re[..n], back_im: &step.back_im[..n] };
+        let poles = Poles {
+            re: &step.pole_re[..n],
+            im: &step.pole_im[..n],
+            back_re: &step.back_re[..n],
+            back_im: &step.back_im[..n],
+        };
         gather.take(&self.re[..n], &self.im[..n], poles)
     }
 
@@ -766,14 +772,28 @@ impl FreeGather {
     #[cfg(test)]
     pub fn run(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.len;
-        real_block_into(&mut self.now[..n], &mut self.before[..n], &self.twice_re[..n], &self.minus_norm[..n], acc, false);
+        real_block_into(
+            &mut self.now[..n],
+            &mut self.before[..n],
+            &self.twice_re[..n],
+            &self.minus_norm[..n],
+            acc,
+            false,
+        );
     }
 
     /// [`Self::run`], writing `acc` (zeros if nothing was gathered) instead of
     /// adding to it.
     pub fn run_fresh(&mut self, acc: &mut [[f64; LANES]]) {
         let n = self.len;
-        real_block_into(&mut self.now[..n], &mut self.before[..n], &self.twice_re[..n], &self.minus_norm[..n], acc, true);
+        real_block_into(
+            &mut self.now[..n],
+            &mut self.before[..n],
+            &self.twice_re[..n],
+            &self.minus_norm[..n],
+            acc,
+            true,
+        );
     }
 }
 
@@ -1102,7 +1122,9 @@ mod tests {
             x ^= x << 17;
             (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
-        let acc: Vec<[f64; LANES]> = (0..crate::CONTROL_BLOCK).map(|i| std::array::from_fn(|l| next() * 10f64.powi((i + 3 * l) as i32 % 17 - 8))).collect();
+        let acc: Vec<[f64; LANES]> = (0..crate::CONTROL_BLOCK)
+            .map(|i| std::array::from_fn(|l| next() * 10f64.powi((i + 3 * l) as i32 % 17 - 8)))
+            .collect();
         let start: Vec<f64> = (0..crate::CONTROL_BLOCK).map(|_| next()).collect();
         // A stretch whose length is no multiple of eight, too.
         let (mut fast, mut plain) = (start[..13].to_vec(), start[..13].to_vec());
@@ -1204,7 +1226,8 @@ mod tests {
             b.accumulate_free(step, &mut added);
         }
         let mut gather = FreeGather::with_room(banks.iter().map(|b| b.len().next_multiple_of(LANES)).sum());
-        let at: Vec<usize> = banks.iter().zip(&steps).map(|(b, step)| b.gather_free(step, &mut gather).unwrap()).collect();
+        let at: Vec<usize> =
+            banks.iter().zip(&steps).map(|(b, step)| b.gather_free(step, &mut gather).unwrap()).collect();
         let mut written = vec![[f64::NAN; LANES]; FREE_BLOCK];
         gather.run_fresh(&mut written);
         for (((b, at), a), step) in banks.iter_mut().zip(at).zip(&alone).zip(&steps) {

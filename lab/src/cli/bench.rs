@@ -107,7 +107,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let (mut fma_per_s, mut mode_samples_per_s, mut complex_per_s) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..runs {
         fma_per_s = fma_per_s.max(perf::fma_probe(probe_time / runs as u32));
-        mode_samples_per_s = mode_samples_per_s.max(perf::gathered_throughput(KERNEL_MODES, BLOCK, kernel_time / runs as u32));
+        mode_samples_per_s =
+            mode_samples_per_s.max(perf::gathered_throughput(KERNEL_MODES, BLOCK, kernel_time / runs as u32));
         complex_per_s = complex_per_s.max(perf::free_throughput(KERNEL_MODES, BLOCK, kernel_time / runs as u32));
     }
     let ns_per_mode_sample = 1e9 / mode_samples_per_s;
@@ -167,20 +168,38 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     );
     let pass =
         goals.check("after_release_worst_block", keyboard.after_release_worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal("worst block", of_period(keyboard.after_release_worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    out.goal(
+        "worst block",
+        of_period(keyboard.after_release_worst_block_fraction),
+        format!("< {}", percent(WORST_BLOCK_MAX)),
+        pass,
+    );
     out.line(after_release(&keyboard));
 
     // The same with everything on.
     out.blank();
     let all = workload::full_keyboard(held_s, release_s, runs, Extras::On);
-    out.line("full keyboard, everything on: the same with sympathetic strings, phantom partials and the action's sounds".to_string());
+    out.line(
+        "full keyboard, everything on: the same with sympathetic strings, phantom partials and the action's sounds"
+            .to_string(),
+    );
     out.line(format!("  {:.0} modes computed on average while held", all.running_modes_mean));
     let pass = goals.check("full_keyboard_all_load", all.load_fraction, Below, FULL_KEYBOARD_ALL_LOAD_MAX);
     out.goal("load", percent_of_core(all.load_fraction), format!("< {}", percent(FULL_KEYBOARD_ALL_LOAD_MAX)), pass);
     let pass = goals.check("full_keyboard_all_worst_block", all.worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal("worst block (the chords' included)", of_period(all.worst_block_fraction), format!("< {}", percent(WORST_BLOCK_MAX)), pass);
+    out.goal(
+        "worst block (the chords' included)",
+        of_period(all.worst_block_fraction),
+        format!("< {}", percent(WORST_BLOCK_MAX)),
+        pass,
+    );
     let pass = goals.check("chord10_block", all.chord_block_fraction, Below, CHORD10_ALL_BLOCK_MAX);
-    out.goal("the 10-key chord's worst block", of_period(all.chord_block_fraction), format!("< {}", percent(CHORD10_ALL_BLOCK_MAX)), pass);
+    out.goal(
+        "the 10-key chord's worst block",
+        of_period(all.chord_block_fraction),
+        format!("< {}", percent(CHORD10_ALL_BLOCK_MAX)),
+        pass,
+    );
     let pass = goals.check("chord20_block", all.chord20_block_fraction, Below, WORST_BLOCK_MAX);
     out.goal(
         "the 20-key chord's",

@@ -162,7 +162,8 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
             }
             if b == chord20_block {
                 events.extend(
-                    CHORD20.map(|key| TimedEvent::new(CHORD20_OFFSET, Event::NoteOn { key, velocity: CHORD20_VELOCITY })),
+                    CHORD20
+                        .map(|key| TimedEvent::new(CHORD20_OFFSET, Event::NoteOn { key, velocity: CHORD20_VELOCITY })),
                 );
             }
             if b == held_blocks {

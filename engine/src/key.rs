@@ -95,11 +95,11 @@ pub(crate) const TRADE_BLOCKS: usize = 16;
 pub(crate) const SYMPATHY_BLOCKS: usize = 8;
 
 /// A silent key is woken by the other strings only by a drive this many
-/// times over the silence floor (10 dB: a string barely moved would ring
-/// unheard, at the cost of a key's computing). At 30 dB a mezzo-forte
+/// times over the silence floor (about 10 dB: a string barely moved would
+/// ring unheard, at the cost of a key's computing). At 30 dB a mezzo-forte
 /// staccato C4 left most of the undamped treble asleep (its answer 3 dB
-/// weaker, and none at all at velocity 64); the keys this wakes cost nothing
-/// measurable in `struck bench`.
+/// weaker, and none at all at velocity 64); the 32-note chord of `struck
+/// bench` wakes one key more (27 sounding), at no measurable cost.
 const WAKE_OVER_SILENCE: f64 = 3.0;
 
 /// Free strings are culled every this many control blocks.
@@ -979,6 +979,8 @@ impl Key {
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();
             action::kick_modes(string, position, share, action::DAMPER_CONTACT_S, |i, dv| bank.nudge(i, 0.0, dv));
+            // (A hammer still in play is watched again on the kicked modes.)
+            s.watch_hammer();
         }
     }
 
@@ -1008,6 +1010,7 @@ impl Key {
         for s in &mut self.strings {
             let (string, bank) = s.string_and_bank_mut();
             action::damper_release(string, position, LIFT_TOP_HZ, |i, dv| bank.nudge(i, 0.0, dv * level));
+            s.watch_hammer();
         }
     }
 
@@ -1269,7 +1272,10 @@ impl Key {
         // Which strings turn freely over this stretch (a resting tangent's lift
         // goes to `out`); the others step sample by sample.
         for (s, free) in self.strings.iter_mut().zip(self.free_now.iter_mut()) {
-            *free = contact.is_none() && s.free_for(out);
+            // (A string whose hammer flies clear turns freely even while the
+            // live view records: it adds no contact force, and how it is
+            // stepped then never depends on where a recording ends.)
+            *free = (contact.is_none() || s.coasting()) && s.free_for(out);
         }
         if self.gather_live && self.free_now.iter().zip(&self.gathered).any(|(f, at)| *f != at.is_some()) {
             self.settle();

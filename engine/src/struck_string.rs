@@ -236,7 +236,13 @@ impl StruckString {
         matches!(&self.exciter, Exciter::Hammer(rig) if rig.gone(gap_m, after_s))
     }
 
-    /// At a control tick (its modes back from any gathering): whether a
+    /// Whether a hammer in play flies clear of it ([`Self::watch_hammer`]).
+    pub fn coasting(&self) -> bool {
+        matches!(&self.exciter, Exciter::Hammer(rig) if rig.coasting())
+    }
+
+    /// At a control tick, or after its modes were kicked (its modes back
+    /// from any gathering): whether a
     /// hammer in play flies clear of the string, which then turns freely
     /// ([`Self::free_for`]) until the hammer is let go. Allocates: no.
     pub fn watch_hammer(&mut self) {
@@ -365,8 +371,8 @@ impl StruckString {
     /// Advance `out.len()` samples while the string is free (or a tangent rests on
     /// it): the modes' bridge force goes to `acc` by lane ([`ModalBank::accumulate_free`];
     /// sum the lanes with [`crate::modal_bank::lane_sum`]), a resting tangent's
-    /// static lift to `out` (`acc` and `out` the same length). Returns false (doing
-    /// nothing) when an exciter is in play.
+    /// static lift or a coasting hammer's share to `out` (`acc` and `out` the same
+    /// length). Returns false (doing nothing) when an exciter is otherwise in play.
     ///
     /// Allocates: no.
     pub fn accumulate_free(&mut self, acc: &mut [[f64; LANES]], out: &mut [f64]) -> bool {
@@ -379,8 +385,9 @@ impl StruckString {
 
     /// Whether its modes turn freely over `out.len()` samples (no exciter in
     /// play, a hammer flying clear of it, or a tangent resting on it), adding a
-    /// coasting hammer's share or a resting tangent's static lift to `out`: then [`Self::accumulate_free`] without it, or a
-    /// gathering ([`ModalBank::gather_free`] with [`Self::audio`]), advances them.
+    /// coasting hammer's share or a resting tangent's static lift to `out`:
+    /// then [`Self::accumulate_free`] without it, or a gathering
+    /// ([`ModalBank::gather_free`] with [`Self::audio`]), advances them.
     pub fn free_for(&mut self, out: &mut [f64]) -> bool {
         if let Exciter::Hammer(rig) = &mut self.exciter
             && rig.coasting()

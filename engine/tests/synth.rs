@@ -131,10 +131,23 @@ fn session() -> Vec<(f64, Event)> {
 
 #[test]
 fn any_block_size_gives_the_same_samples() {
-    let reference = render(&mut synth(InstrumentKind::Piano), 0.5, &session(), 64);
-    for block in [1, 7, 4096, 8192] {
-        let out = render(&mut synth(InstrumentKind::Piano), 0.5, &session(), block);
-        assert!(out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits()), "block {block} differs");
+    // Watched by a live view (as in the plugin, which keeps its side), and not.
+    for watched in [true, false] {
+        let play = |block: usize| {
+            let (mut s, scope) =
+                Synth::new(Box::new(Instrument::build(&default_settings(InstrumentKind::Piano, FS)).unwrap()));
+            s.set_controls(bridge());
+            let _kept = watched.then_some(scope);
+            render(&mut s, 0.5, &session(), block)
+        };
+        let reference = play(64);
+        for block in [1, 7, 4096, 8192] {
+            let out = play(block);
+            assert!(
+                out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "block {block} differs (watched: {watched})"
+            );
+        }
     }
 }
 

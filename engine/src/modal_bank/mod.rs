@@ -1255,6 +1255,34 @@ mod tests {
     }
 
     #[test]
+    fn a_gathering_of_any_number_of_groups_turns_them_as_alone() {
+        // Whole chains of REAL_CHAIN groups and every remainder (none gathered
+        // at all: a fresh run writes zeros); each group one mode of its own Q.
+        for groups in 0..=2 * REAL_CHAIN + 1 {
+            let strings: Vec<StringModes> = (0..groups).map(|g| one_mode(200.0 + 37.0 * g as f64)).collect();
+            let steps: Vec<StepTable> = strings.iter().map(|s| StepTable::new(s, 1.0 / 48_000.0)).collect();
+            let mut banks: Vec<ModalBank> = strings.iter().map(ModalBank::new).collect();
+            for (g, b) in banks.iter_mut().enumerate() {
+                b.add_velocity(0, 1.0 + g as f64);
+            }
+            let mut added = vec![[0.0; LANES]; FREE_BLOCK];
+            for (b, step) in banks.clone().iter_mut().zip(&steps) {
+                b.accumulate_free(step, &mut added);
+            }
+            let mut gather = FreeGather::with_room((groups * LANES).max(1));
+            for (b, step) in banks.iter().zip(&steps) {
+                b.gather_free(step, &mut gather).unwrap();
+            }
+            let mut written = vec![[f64::NAN; LANES]; FREE_BLOCK];
+            gather.run_fresh(&mut written);
+            let peak = added.iter().map(lane_sum).fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+            for (x, y) in added.iter().map(lane_sum).zip(written.iter().map(lane_sum)) {
+                assert!((x - y).abs() <= 1e-12 * peak, "{groups} groups: {x} against {y}");
+            }
+        }
+    }
+
+    #[test]
     fn free_and_driven_idle_steps_give_identical_bits() {
         let string = treble_string();
         let step = StepTable::new(&string, 1.0 / 48_000.0);

@@ -16,7 +16,7 @@
 use std::time::Instant;
 
 use struck_engine::design::InstrumentKind;
-use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+use struck_engine::synth::{Controls, Event, Instrument, Scope, Synth, TimedEvent, default_settings};
 
 pub const SAMPLE_RATE_HZ: f64 = 48_000.0;
 /// The host's block, samples.
@@ -79,10 +79,13 @@ pub enum Extras {
     Off,
 }
 
-fn piano(polyphony: usize, extras: Extras) -> Synth {
+/// The built-in piano, and its live view's side: a real-time workload keeps
+/// it, as the plugin does (the synth then follows the key last struck), an
+/// offline one drops it, as `struck render` does.
+fn piano(polyphony: usize, extras: Extras) -> (Synth, Scope) {
     let instrument =
         Instrument::build(&default_settings(InstrumentKind::Piano, SAMPLE_RATE_HZ)).expect("the built-in piano builds");
-    let (mut synth, _scope) = Synth::new(Box::new(instrument));
+    let (mut synth, scope) = Synth::new(Box::new(instrument));
     let controls = match extras {
         Extras::On => Controls { polyphony, ..Controls::default() },
         Extras::Off => Controls {
@@ -96,7 +99,7 @@ fn piano(polyphony: usize, extras: Extras) -> Synth {
         },
     };
     synth.set_controls(controls);
-    synth
+    (synth, scope)
 }
 
 /// What the full-keyboard workload measured. Fractions are of one core (a
@@ -144,7 +147,7 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
     let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
     let mut events = Vec::with_capacity(128);
     for run in 0..runs.max(1) {
-        let mut synth = piano(128, extras);
+        let (mut synth, _scope) = piano(128, extras);
         modes = synth.instrument().mode_count();
         let mut times = Vec::with_capacity(held_blocks + release_blocks);
         for b in 0..held_blocks + release_blocks {
@@ -221,7 +224,7 @@ pub fn chord32_realtime_factor(held_s: f64, runs: usize) -> (f64, usize) {
     let mut best = f64::INFINITY;
     let mut keys = 0;
     for _ in 0..runs.max(1) {
-        let mut synth = piano(64, Extras::On);
+        let (mut synth, _) = piano(64, Extras::On);
         let start = Instant::now();
         for b in 0..blocks {
             let events = if b == 0 { &notes[..] } else { &[] };
@@ -241,7 +244,7 @@ pub fn idle_load(audio_s: f64, runs: usize) -> f64 {
     let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
     let mut best = f64::INFINITY;
     for _ in 0..runs.max(1) {
-        let mut synth = piano(64, Extras::On);
+        let (mut synth, _scope) = piano(64, Extras::On);
         let start = Instant::now();
         for _ in 0..blocks {
             synth.process(&[], &mut left, &mut right);

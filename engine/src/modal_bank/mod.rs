@@ -771,29 +771,19 @@ impl FreeGather {
     /// [`Self::run_fresh`]; this is what it is checked against.)
     #[cfg(test)]
     pub fn run(&mut self, acc: &mut [[f64; LANES]]) {
-        let n = self.len;
-        real_block_into(
-            &mut self.now[..n],
-            &mut self.before[..n],
-            &self.twice_re[..n],
-            &self.minus_norm[..n],
-            acc,
-            false,
-        );
+        self.run_into(acc, false);
     }
 
     /// [`Self::run`], writing `acc` (zeros if nothing was gathered) instead of
     /// adding to it.
     pub fn run_fresh(&mut self, acc: &mut [[f64; LANES]]) {
+        self.run_into(acc, true);
+    }
+
+    fn run_into(&mut self, acc: &mut [[f64; LANES]], fresh: bool) {
         let n = self.len;
-        real_block_into(
-            &mut self.now[..n],
-            &mut self.before[..n],
-            &self.twice_re[..n],
-            &self.minus_norm[..n],
-            acc,
-            true,
-        );
+        let (now, before) = (&mut self.now[..n], &mut self.before[..n]);
+        real_block_into(now, before, &self.twice_re[..n], &self.minus_norm[..n], acc, fresh);
     }
 }
 

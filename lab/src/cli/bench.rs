@@ -186,27 +186,19 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     out.line(format!("  {:.0} modes computed on average while held", all.running_modes_mean));
     let pass = goals.check("full_keyboard_all_load", all.load_fraction, Below, FULL_KEYBOARD_ALL_LOAD_MAX);
     out.goal("load", percent_of_core(all.load_fraction), format!("< {}", percent(FULL_KEYBOARD_ALL_LOAD_MAX)), pass);
-    let pass = goals.check("full_keyboard_all_worst_block", all.worst_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal(
-        "worst block (the chords' included)",
-        of_period(all.worst_block_fraction),
-        format!("< {}", percent(WORST_BLOCK_MAX)),
-        pass,
-    );
-    let pass = goals.check("chord10_block", all.chord_block_fraction, Below, CHORD10_ALL_BLOCK_MAX);
-    out.goal(
-        "the 10-key chord's worst block",
-        of_period(all.chord_block_fraction),
-        format!("< {}", percent(CHORD10_ALL_BLOCK_MAX)),
-        pass,
-    );
-    let pass = goals.check("chord20_block", all.chord20_block_fraction, Below, WORST_BLOCK_MAX);
-    out.goal(
-        "the 20-key chord's",
-        of_period(all.chord20_block_fraction),
-        format!("< {}", percent(WORST_BLOCK_MAX)),
-        pass,
-    );
+    for (name, label, fraction, limit) in [
+        (
+            "full_keyboard_all_worst_block",
+            "worst block (the chords' included)",
+            all.worst_block_fraction,
+            WORST_BLOCK_MAX,
+        ),
+        ("chord10_block", "the 10-key chord's worst block", all.chord_block_fraction, CHORD10_ALL_BLOCK_MAX),
+        ("chord20_block", "the 20-key chord's", all.chord20_block_fraction, WORST_BLOCK_MAX),
+    ] {
+        let pass = goals.check(name, fraction, Below, limit);
+        out.goal(label, of_period(fraction), format!("< {}", percent(limit)), pass);
+    }
     out.line(after_release(&all));
 
     // The 32-note chord, offline.

@@ -153,7 +153,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         pass,
     );
     for (label, fraction) in [
-        ("worst block while the 10-key chord's hammers are on", keyboard.chord_block_fraction),
+        ("while the 10-key chord's hammers are on", keyboard.chord_block_fraction),
         ("... the 20-key chord's", keyboard.chord20_block_fraction),
     ] {
         out.line(format!("  {label:<width$}{} of {period_ms:.2} ms", percent(fraction), width = LABEL_WIDTH - 2));

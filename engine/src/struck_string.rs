@@ -242,9 +242,9 @@ impl StruckString {
     }
 
     /// At a control tick, or after its modes were kicked (its modes back
-    /// from any gathering): whether a
-    /// hammer in play flies clear of the string, which then turns freely
-    /// ([`Self::free_for`]) until the hammer is let go. Allocates: no.
+    /// from any gathering): whether a hammer in play flies clear of the
+    /// string, which then turns freely ([`Self::free_for`]) until the hammer
+    /// is let go. Allocates: no.
     pub fn watch_hammer(&mut self) {
         if let Exciter::Hammer(rig) = &mut self.exciter {
             rig.watch(&self.bank);
@@ -524,6 +524,7 @@ mod tests {
         let (ha, hb) = (stepped.hammer().unwrap(), coasting.hammer().unwrap());
         assert!((ha.position_m - hb.position_m).abs() <= 1e-15 && ha.velocity_m_s == hb.velocity_m_s);
     }
+
     /// A strike or pluck at a new point moves the string's tables there in
     /// place: they are, to the bit, the tables built there afresh, and back
     /// again the ones it had.

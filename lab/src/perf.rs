@@ -82,17 +82,11 @@ pub fn synthetic_bank(count: usize, sample_rate_hz: f64) -> (ModalBank, StepTabl
 pub fn free_throughput(count: usize, block: usize, min_time: Duration) -> f64 {
     let (mut bank, step) = synthetic_bank(count, 48_000.0);
     let mut out = vec![0.0; block];
-    let mut samples = 0usize;
-    let start = Instant::now();
-    while start.elapsed() < min_time {
-        for _ in 0..16 {
-            out.fill(0.0);
-            bank.process_free(&step, &mut out);
-        }
-        samples += 16 * block;
+    mode_samples_per_s(count, block, min_time, || {
+        out.fill(0.0);
+        bank.process_free(&step, &mut out);
         std::hint::black_box(&out);
-    }
-    (count * samples) as f64 / start.elapsed().as_secs_f64()
+    })
 }
 
 /// Free-mode throughput in the gathered real form the synth runs a key's free
@@ -104,14 +98,22 @@ pub fn gathered_throughput(count: usize, block: usize, min_time: Duration) -> f6
     let mut gather = FreeGather::with_room(count);
     bank.gather_free(&step, &mut gather).expect("room for the bank");
     let mut acc = vec![[0.0; LANES]; block];
+    mode_samples_per_s(count, block, min_time, || {
+        gather.run_fresh(&mut acc);
+        std::hint::black_box(&acc);
+    })
+}
+
+/// Mode-samples per second of `run_block` (`count` modes over `block`
+/// samples), run 16 times between looks at the clock until `min_time` has passed.
+fn mode_samples_per_s(count: usize, block: usize, min_time: Duration, mut run_block: impl FnMut()) -> f64 {
     let mut samples = 0usize;
     let start = Instant::now();
     while start.elapsed() < min_time {
         for _ in 0..16 {
-            gather.run_fresh(&mut acc);
+            run_block();
         }
         samples += 16 * block;
-        std::hint::black_box(&acc);
     }
     (count * samples) as f64 / start.elapsed().as_secs_f64()
 }

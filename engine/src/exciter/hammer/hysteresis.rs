@@ -122,10 +122,11 @@ impl Memory {
         (elastic_n - self.epsilon * self.at_end_n).max(0.0)
     }
 
-    /// An audio sample out of contact: the memory relaxes.
-    pub fn relax_free(&mut self) {
-        self.force_n *= self.relax_audio;
-        self.at_end_n *= self.relax_audio;
+    /// `samples` audio samples out of contact: the memory relaxes.
+    pub fn relax_free_for(&mut self, samples: usize) {
+        let relax = self.relax_audio.powi(samples.min(i32::MAX as usize) as i32);
+        self.force_n *= relax;
+        self.at_end_n *= relax;
     }
 
     /// One sub-step, as [`ContactLaw::step`] (same arguments; `guess.force_n` a

@@ -88,16 +88,20 @@ struct Strike {
 }
 
 impl Strike {
-    /// A step of `h` with nothing touching: the hammer flies on to `eta_m`,
-    /// the omitted modes relax to `residual_m` (their dashpot taking the
-    /// difference) and the felt's memory fades.
-    fn fly_free(&mut self, residual: &Residual, h: f64, eta_m: f64, residual_m: f64) {
-        self.hammer.commit(h, eta_m, 0.0);
+    /// `samples` audio samples with nothing touching, after the hammer's
+    /// flight: the omitted modes relax to `residual_m` (their dashpot taking
+    /// the difference) and the felt's memory fades.
+    fn relax_free(&mut self, residual: &Residual, samples: usize, residual_m: f64) {
         self.absorbed_j += residual.energy_j(self.residual_m) - residual.energy_j(residual_m);
         self.residual_m = residual_m;
         if let Some(memory) = self.memory.as_mut() {
-            memory.relax_free();
+            memory.relax_free_for(samples);
         }
+    }
+
+    /// One sample `h` of the hammer's free flight.
+    fn fly(&mut self, h: f64) {
+        self.hammer.commit(h, self.hammer.predict_m(h), 0.0);
         self.time_s += h;
     }
 }
@@ -272,16 +276,23 @@ impl HammerRig {
 
     /// `h`-second samples, `out.len()` of them, of a coasting hammer: what
     /// [`Self::tick`] does while nothing touches, but for the string's own
-    /// steps, which run freely elsewhere; the omitted modes' relaxing share
-    /// of the bridge force is added to `out`. Allocates: no.
+    /// steps, which run freely elsewhere: the hammer flies on, the omitted
+    /// modes' relaxing share of the bridge force goes to `out` while any is
+    /// left, and the felt's memory fades once for the stretch. Allocates: no.
     pub fn coast(&mut self, h: f64, out: &mut [f64]) {
         let t = &self.tables;
         let Some(d) = self.strike.as_mut().filter(|d| d.coasting) else { return };
+        let mut residual_m = d.residual_m;
         for o in out.iter_mut() {
-            let residual_m = t.residual.relax_audio * d.residual_m;
-            d.fly_free(&t.residual, h, d.hammer.predict_m(h), residual_m);
-            *o += t.residual.bridge_force_n(residual_m);
+            // (The flight sample by sample: where stepping the string sample
+            // by sample would put the hammer, to the bit.)
+            d.fly(h);
+            if residual_m != 0.0 {
+                residual_m *= t.residual.relax_audio;
+                *o += t.residual.bridge_force_n(residual_m);
+            }
         }
+        d.relax_free(&t.residual, out.len(), residual_m);
     }
 
     /// The present state without stepping (a strike in play).
@@ -322,7 +333,8 @@ impl HammerRig {
             let residual_m = t.residual.relax_audio * d.residual_m;
             let compression_m = eta_hat - y_hat - residual_m;
             if compression_m <= 0.0 {
-                d.fly_free(&t.residual, h, eta_hat, residual_m);
+                d.fly(h);
+                d.relax_free(&t.residual, 1, residual_m);
                 d.compression_m = compression_m;
                 d.felt = Felt { compression_m, force_n: 0.0, energy_j: 0.0 };
                 observer.step(d.time_s, compression_m, 0.0);

@@ -21,7 +21,7 @@
 //! share per newton. Every joule is accounted for: what the hammer loses is in the
 //! kept modes, the felt, the residual spring, or taken up by the omitted modes.
 
-use super::contact::{Binomial, ContactStep, Felt, Guess};
+use super::contact::{Binomial, ContactStep, Felt, Guess, LastPower};
 use super::hysteresis::Memory;
 use super::{Hammer, HammerSpec};
 use crate::exciter::{ContactObserver, Tick, drive_table};
@@ -72,6 +72,8 @@ struct Strike {
     earlier_compression_m: [f64; 2],
     /// The felt law's [`super::ContactLaw::binomial`].
     binomial: Binomial,
+    /// Where the felt's power was last taken.
+    last_power: LastPower,
     /// The felt's memory, if it has hysteresis (None: elastic).
     memory: Option<Memory>,
     /// Energy taken up by the omitted modes' dashpot so far, J.
@@ -191,6 +193,7 @@ impl HammerRig {
             earlier_force_n: [0.0; 2],
             earlier_compression_m: [0.0; 2],
             binomial: spec.law.binomial(),
+            last_power: LastPower::default(),
             memory: Memory::new(spec.hysteresis, substep_s, sample_s),
             absorbed_j: 0.0,
             fine,
@@ -369,6 +372,7 @@ impl HammerRig {
                 force_n: 3.0 * (d.force_n - f1) + f2,
                 compression_m: 3.0 * (d.compression_m - c1) + c2,
                 binomial: &d.binomial,
+                last_power: &d.last_power,
             };
             let law = &d.hammer.spec.law;
             let (ContactStep { compression_m, step_force_n: force, .. }, felt) = match d.memory.as_mut() {

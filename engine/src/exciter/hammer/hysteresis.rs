@@ -153,8 +153,9 @@ impl Memory {
         let mut force = scale * step.step_force_n - offset_n;
         if !(force >= 0.0) {
             // The felt would pull: no force, and the compression is what it would be
-            // without one. The memory still sees the elastic mean over that step.
-            let (free, free_end) = law.step(start, c_hat, 0.0, None);
+            // without one. The memory still sees the elastic mean over that step
+            // (the felt there from the series near the guess, without a power).
+            let (free, free_end) = law.step(start, c_hat, 0.0, guess);
             step = ContactStep { compression_m: c_hat, step_force_n: free.step_force_n, iterations: step.iterations };
             end = free_end;
             force = 0.0;

@@ -66,8 +66,8 @@ struct Strike {
     felt: Felt,
     /// Force held over the last step (carried into the next pass), N.
     force_n: f64,
-    /// ... and over the two steps before it (to guess the next), N.
-    earlier_force_n: [f64; 2],
+    /// ... and over the four steps before it (to guess the next), N.
+    earlier_force_n: [f64; 4],
     /// The compressions at the ends of the two steps before the last, m.
     earlier_compression_m: [f64; 2],
     /// The felt law's [`super::ContactLaw::binomial`].
@@ -190,7 +190,7 @@ impl HammerRig {
             compression_m: 0.0,
             felt: Felt::default(),
             force_n: 0.0,
-            earlier_force_n: [0.0; 2],
+            earlier_force_n: [0.0; 4],
             earlier_compression_m: [0.0; 2],
             binomial: spec.law.binomial(),
             last_power: LastPower::default(),
@@ -364,12 +364,16 @@ impl HammerRig {
             let (y_hat, bridge_hat) = bank.step_driven(sub, t_sub, d.force_n);
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
-            // The courses of force and compression so far, carried on by parabolas,
-            // are the solve's guesses (the compression's does not wait on this pass).
-            let [f1, f2] = d.earlier_force_n;
+            // The courses of force and compression so far, carried on by a quartic
+            // through the last five forces and a parabola through the last three
+            // compressions, are the solve's guesses (the compression's, where the
+            // felt's series is anchored, does not wait on this pass). The force's
+            // ripple from the string's high modes limits either: the quartic's
+            // lands about three times nearer than a parabola's.
+            let [f1, f2, f3, f4] = d.earlier_force_n;
             let [c1, c2] = d.earlier_compression_m;
             let guess = Guess {
-                force_n: 3.0 * (d.force_n - f1) + f2,
+                force_n: 5.0 * (d.force_n - f3) - 10.0 * (f1 - f2) + f4,
                 compression_m: 3.0 * (d.compression_m - c1) + c2,
                 binomial: &d.binomial,
                 last_power: &d.last_power,
@@ -379,7 +383,7 @@ impl HammerRig {
                 None => law.step(d.felt, c_hat, compliance, Some(guess)),
                 Some(memory) => memory.step(law, d.felt, c_hat, compliance, Some(guess)),
             };
-            d.earlier_force_n = [d.force_n, f1];
+            d.earlier_force_n = [d.force_n, f1, f2, f3];
             d.earlier_compression_m = [d.compression_m, c1];
             d.felt = felt;
             d.hammer.commit(h, eta_hat, force);

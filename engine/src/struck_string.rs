@@ -19,7 +19,7 @@ use crate::exciter::hammer::{Hammer, HammerRig, HammerSpec, Substep};
 use crate::exciter::pluck::{PluckRig, PluckSpec};
 use crate::exciter::tangent::{TangentMotion, TangentRig, TangentSpec};
 pub use crate::exciter::{ContactObserver, Tick};
-use crate::modal_bank::{FreeGather, LANES, ModalBank, StepTable};
+use crate::modal_bank::{FreeGather, LANES, ModalBank, SavedPoles, StepTable};
 use crate::string::StringModes;
 
 /// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
@@ -40,6 +40,11 @@ pub struct StruckString {
     exciter: Exciter,
     /// [`ModalBank::kick`] factors for a motion of the bridge end (empty until prepared).
     bridge_kick: Vec<f64>,
+    /// The free step's poles with nothing added to the modes' losses (no
+    /// damper on), at this pitch ratio: what a strike asks for nearly always
+    /// (the damper lifts), put back instead of worked out again. A chord's
+    /// keys spent a tenth of its first block on their poles' sines and cosines.
+    lifted: (f64, SavedPoles),
 }
 
 impl StruckString {
@@ -69,7 +74,9 @@ impl StruckString {
         // Stay sub-stepped through force-free gaps up to 100 us: a stiff contact
         // chatters with micro-separations of tens of microseconds.
         let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
-        Self { string, bank, audio, fine, hold_samples, exciter: Exciter::None, bridge_kick: Vec::new() }
+        // The tables are built with no losses added, at the string's own pitch.
+        let lifted = (1.0, audio.save_poles());
+        Self { string, bank, audio, fine, hold_samples, exciter: Exciter::None, bridge_kick: Vec::new(), lifted }
     }
 
     pub fn string(&self) -> &StringModes {
@@ -277,11 +284,21 @@ impl StruckString {
     /// `extra_decay_s + extra_decay_per_hz_s * f_n` (a damper) and every frequency
     /// scaled by `pitch_ratio` (a bend). Sub-steps keep the string's own poles.
     ///
-    /// Allocates: no. One exp and one sin/cos per mode.
+    /// Allocates: no. One exp and one sin/cos per mode, but for a lifted
+    /// damper at the pitch last asked for with it: those poles are put back.
     pub fn set_free_step(&mut self, extra_decay_s: f64, extra_decay_per_hz_s: f64, pitch_ratio: f64) {
+        let lifted = extra_decay_s == 0.0 && extra_decay_per_hz_s == 0.0;
+        if lifted && pitch_ratio == self.lifted.0 {
+            self.audio.restore_poles(&self.lifted.1);
+            return;
+        }
         for (i, mode) in self.string.modes.iter().enumerate() {
             let sigma = mode.decay_rate_s() + extra_decay_s + extra_decay_per_hz_s * mode.frequency_hz();
             self.audio.set_pole(i, sigma, pitch_ratio * mode.damped_omega_rad_s());
+        }
+        if lifted {
+            self.lifted.0 = pitch_ratio;
+            self.audio.save_poles_into(&mut self.lifted.1);
         }
     }
 
@@ -481,6 +498,36 @@ impl StruckString {
 mod tests {
     use super::*;
     use crate::exciter::hammer::contact::ContactLaw;
+
+    /// The poles put back for a lifted damper are the ones worked out for it,
+    /// at the string's own pitch and at a bent one.
+    #[test]
+    fn lifted_poles_are_put_back_as_worked_out() {
+        let string = || StruckString::new(crate::string::test_string(3e-4, 12_000.0), 48_000.0, 4);
+        let worked_out = |pitch: f64| {
+            // (Damped first, so the lifted poles are worked out, not put back.)
+            let mut s = string();
+            s.set_free_step(5.0, 1e-3, pitch);
+            for (i, mode) in s.string.modes.iter().enumerate() {
+                s.audio.set_pole(i, mode.decay_rate_s(), pitch * mode.damped_omega_rad_s());
+            }
+            s.audio.save_poles()
+        };
+        let mut s = string();
+        assert_eq!(s.audio.save_poles(), worked_out(1.0));
+        s.set_free_step(5.0, 1e-3, 1.0);
+        assert_ne!(s.audio.save_poles(), worked_out(1.0));
+        s.set_free_step(0.0, 0.0, 1.0);
+        assert_eq!(s.audio.save_poles(), worked_out(1.0));
+        // A bend: worked out, then put back after a damper.
+        s.set_free_step(0.0, 0.0, 1.03);
+        assert_eq!(s.audio.save_poles(), worked_out(1.03));
+        s.set_free_step(2.0, 0.0, 1.03);
+        s.set_free_step(0.0, 0.0, 1.03);
+        assert_eq!(s.audio.save_poles(), worked_out(1.03));
+        s.set_free_step(0.0, 0.0, 1.0);
+        assert_eq!(s.audio.save_poles(), worked_out(1.0));
+    }
 
     /// Once its hammer flies clear (checked at each 64-sample tick), a string
     /// turns freely in blocks while the hammer stays in play; it plays what the

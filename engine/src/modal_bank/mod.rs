@@ -95,6 +95,10 @@ pub struct StepTable {
     end: Vec<Complex64>,
 }
 
+/// A [`StepTable`]'s poles and their inverses, saved to be put back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SavedPoles([Vec<f64>; 5]);
+
 impl StepTable {
     pub fn new(string: &StringModes, step_s: f64) -> Self {
         let n = padded(string.mode_count());
@@ -128,6 +132,32 @@ impl StepTable {
 
     pub fn pole(&self, index: usize) -> Complex64 {
         Complex64::new(self.pole_re[index], self.pole_im[index])
+    }
+
+    /// A copy of its poles (and their inverses), to be put back with
+    /// [`Self::restore_poles`]. Allocates.
+    pub fn save_poles(&self) -> SavedPoles {
+        SavedPoles([&self.pole_re, &self.pole_im, &self.back_re, &self.back_im, &self.back_inv].map(|v| v.clone()))
+    }
+
+    /// Copy its poles into `saved` (from this table). Allocates: no.
+    pub fn save_poles_into(&self, saved: &mut SavedPoles) {
+        for (to, from) in
+            saved.0.iter_mut().zip([&self.pole_re, &self.pole_im, &self.back_re, &self.back_im, &self.back_inv])
+        {
+            to.copy_from_slice(from);
+        }
+    }
+
+    /// Put back poles saved from this table. Allocates: no.
+    pub fn restore_poles(&mut self, saved: &SavedPoles) {
+        for (to, from) in
+            [&mut self.pole_re, &mut self.pole_im, &mut self.back_re, &mut self.back_im, &mut self.back_inv]
+                .into_iter()
+                .zip(&saved.0)
+        {
+            to.copy_from_slice(from);
+        }
     }
 
     /// Mode `index`'s pole's inverse and the inverse of its imaginary part ([`inverse`]).

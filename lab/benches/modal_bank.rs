@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use struck_engine::exciter::hammer::contact::{ContactLaw, Felt, Guess};
+use struck_engine::exciter::hammer::contact::{ContactLaw, Felt, Guess, LastPower};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 use struck_lab::perf::{contact_string, synthetic_bank};
 
@@ -96,11 +96,13 @@ fn contact_solve(c: &mut Criterion) {
             let mut forces = [0.0; 3];
             let mut compressions = [0.0; 3];
             let binomial = law.binomial();
+            let last_power = LastPower::default();
             for &(_, c_hat) in std::hint::black_box(&steps) {
                 let guess = Guess {
                     force_n: 3.0 * (forces[0] - forces[1]) + forces[2],
                     compression_m: 3.0 * (compressions[0] - compressions[1]) + compressions[2],
                     binomial: &binomial,
+                    last_power: &last_power,
                 };
                 let (step, end) = law.step(felt, c_hat, std::hint::black_box(w), Some(guess));
                 felt = end;

@@ -87,26 +87,28 @@ fn contact_solve(c: &mut Criterion) {
             }
         })
     });
-    // As a strike runs them: each step from the felt the last left, and from the
-    // force and compression of the last three carried on by parabolas.
+    // As a strike runs them: each step from the felt the last left, from the
+    // force of the last five carried on by a quartic and the compression of the
+    // last three by a parabola.
     group.bench_function("the same, chained, from extrapolated forces", |b| {
         b.iter(|| {
             let law = std::hint::black_box(law);
             let mut felt = Felt::default();
-            let mut forces = [0.0; 3];
+            let mut forces = [0.0; 5];
             let mut compressions = [0.0; 3];
             let binomial = law.binomial();
             let last_power = LastPower::default();
             for &(_, c_hat) in std::hint::black_box(&steps) {
+                let [f0, f1, f2, f3, f4] = forces;
                 let guess = Guess {
-                    force_n: 3.0 * (forces[0] - forces[1]) + forces[2],
+                    force_n: 5.0 * (f0 - f3) - 10.0 * (f1 - f2) + f4,
                     compression_m: 3.0 * (compressions[0] - compressions[1]) + compressions[2],
                     binomial: &binomial,
                     last_power: &last_power,
                 };
                 let (step, end) = law.step(felt, c_hat, std::hint::black_box(w), Some(guess));
                 felt = end;
-                forces = [step.step_force_n, forces[0], forces[1]];
+                forces = [step.step_force_n, f0, f1, f2, f3];
                 compressions = [step.compression_m, compressions[0], compressions[1]];
             }
             std::hint::black_box(felt)

@@ -154,7 +154,8 @@ mod tests {
             for fraction in [1.0 / 16.0, 0.25, 1.0] {
                 let speed_m_s = top * fraction;
                 let n = plan.substeps(speed_m_s);
-                // Against a strike sub-stepped far more finely (its own error is 1/16 of N's or less).
+                // Against a strike sub-stepped more finely (its own error is (N / 32)^2
+                // of N's: a sixteenth at 8, a tenth at 10, a quarter at 16).
                 let error = strike_difference(&string, FS, HammerSpec { speed_m_s, ..hammer }, n, 32);
                 assert!(error <= 1.25 * ERROR_BUDGET, "key {key} at {speed_m_s} m/s, {n} sub-steps: {error:.2e}");
                 // And not needlessly many: the next count down would miss the budget.

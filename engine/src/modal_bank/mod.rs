@@ -517,8 +517,9 @@ impl ModalBank {
                 // (A mode's amplitude is far from overflow, and culled long
                 // before its square could underflow: no need for `hypot`,
                 // which does not vectorise and cost a chord's control blocks
-                // 6 %.)
-                acc[l] += c[l].abs() * r[l].mul_add(r[l], i[l] * i[l]).sqrt();
+                // 6 %. Plain products: without FMA in the baseline target,
+                // `mul_add` is a call, which would not vectorise either.)
+                acc[l] += c[l].abs() * (r[l] * r[l] + i[l] * i[l]).sqrt();
             }
         }
         lane_sum(&acc)

@@ -138,7 +138,7 @@ impl ContactLaw {
     /// felt again, along g's cubic about the last point (the force, the mean
     /// force and the felt's energy follow their Taylor series to third order,
     /// all known there from F = K C^alpha), which keeps C1 = C_hat - W F exact
-    /// and errs by the fourth power of the step (2e-15). The caller's guess
+    /// and errs by the fourth power of the step (see `ACCEPT`). The caller's guess
     /// lands within 1e-4 of the compression nearly always, so most sub-steps
     /// evaluate the felt once (with a first-order step, which had to wait for
     /// a step under 1e-7, most took two).
@@ -279,7 +279,8 @@ pub struct Guess<'a> {
 /// its inverse, and the felt's force there. The next step's anchor is
 /// usually near it (a sub-step moves the felt by a few percent at most), and
 /// then the series from it gives the force at the new anchor without a power
-/// (to within 1e-16 of it: the truncation at a hundredth is ~1e-18), which
+/// (within 1e-14 of it at the edge of the series' reach, a test checks; the
+/// truncation at the usual hop of a hundredth is ~1e-18), which
 /// was a fifth of a fortissimo chord's contact time. Empty at a strike's start;
 /// one per strike, as it holds forces of that strike's law.
 #[derive(Debug, Default, PartialEq)]

@@ -57,6 +57,10 @@ pub(crate) const MAX_NOTES: usize = 32;
 const PRESSURE_SMOOTHING_S: f64 = 0.015;
 /// Where a key's own strike position may move the hammer, fractions of the string.
 const MIN_STRIKE_POINT: f64 = 0.02;
+/// A string's contact in the work a sub-step costs, in modes stepped a
+/// sample (for cutting the keys in halves of like work): a sub-step's solve is
+/// about a hundred modes' steps, and a strike takes about ten a sample.
+const CONTACT_WORK: usize = 1000;
 const MAX_STRIKE_POINT: f64 = 0.5;
 /// The deepest Bebung, cents at full pressure.
 pub const MAX_BEBUNG_CENTS: f64 = 100.0;
@@ -803,6 +807,13 @@ impl Key {
         self.strings.iter().map(|s| s.bank().running()).sum()
     }
 
+    /// Its work in the next control block, in modes' steps a sample: its
+    /// running modes, and a string in contact as [`CONTACT_WORK`] more.
+    pub fn work(&self) -> usize {
+        let contacts = self.strings.iter().filter(|s| s.in_contact()).count();
+        self.running_modes() + CONTACT_WORK * contacts
+    }
+
     /// Whether any of the course's keys is down.
     pub fn down(&self) -> bool {
         self.held != 0
@@ -1203,10 +1214,11 @@ impl Key {
         }
     }
 
-    /// Drive `bridge` for its stretch with the key's force at its output gain,
-    /// moving its fade; `scratch` is as long as the stretch. The summed contact
-    /// force goes to `contact` when given.
-    pub fn sound(&mut self, bridge: &mut Bridge, scratch: &mut [f64], contact: Option<&mut [f32]>) {
+    /// The key's force on the bridge over a stretch as long as `force`, at its
+    /// output gain, moving its fade. The summed contact force goes to
+    /// `contact` when given. [`Self::drive`] hands it to the bridge.
+    pub fn sound(&mut self, force: &mut [f64], contact: Option<&mut [f32]>) {
+        let scratch = force;
         scratch.fill(0.0);
         self.render(scratch, contact);
         let glide = self.strike_gain != self.strike_gain_to;
@@ -1240,10 +1252,14 @@ impl Key {
             self.fade_step = 0.0;
             self.fade = 0.0;
         }
+    }
+
+    /// Drive `bridge` with what [`Self::sound`] gave over its stretch.
+    pub fn drive(&mut self, bridge: &mut Bridge, force: &[f64]) {
         if self.pan.is_placed() {
-            bridge.drive_placed(self.bridge_point, scratch, &mut self.pan);
+            bridge.drive_placed(self.bridge_point, force, &mut self.pan);
         } else {
-            bridge.drive(self.bridge_point, scratch);
+            bridge.drive(self.bridge_point, force);
         }
     }
 
@@ -1449,3 +1465,4 @@ pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
         }
     }
 }
+

@@ -82,6 +82,7 @@ pub(crate) mod key;
 pub mod modal_bank;
 pub mod preset;
 pub mod rng;
+pub mod share;
 pub mod string;
 pub mod struck_string;
 pub mod synth;

@@ -151,6 +151,42 @@ fn any_block_size_gives_the_same_samples() {
     }
 }
 
+#[test]
+fn a_second_core_changes_no_sample() {
+    // Through the body (split per microphone once a key is placed) and as the
+    // bridge force; watched by a live view; and across a switch of instrument,
+    // whose keys fade out beside the new one's.
+    let play = |output: Output, share: bool, block: usize| {
+        let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS).heard_through(output);
+        let (mut s, scope) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
+        s.set_controls(Controls { output, ..Controls::default() });
+        s.share_work(share).unwrap();
+        assert_eq!(s.shares_work(), share);
+        let _kept = scope;
+        let mut events = session();
+        events.extend((36..=96u8).step_by(5).map(|key| (0.012, Event::NoteOn { key, velocity: 0.8 })));
+        events.push((0.02, Event::Sustain(1.0)));
+        let mut out = render_stereo(&mut s, 0.3, &events, block);
+        let kind = InstrumentKind::Fortepiano;
+        let settings = struck_engine::synth::default_settings(kind, FS).heard_through(output);
+        s.install(Box::new(Instrument::build(&settings).unwrap()));
+        let more = render_stereo(&mut s, 0.2, &[(0.01, Event::NoteOn { key: 60, velocity: 0.7 })], block);
+        out.0.extend(more.0);
+        out.1.extend(more.1);
+        out
+    };
+    for output in [Output::Microphones, Output::BridgeForce] {
+        let (left, right) = play(output, false, 64);
+        assert!(rms(&left) > 1e-4, "{output:?}: silent");
+        for (share, block) in [(true, 64), (true, 7), (true, 4096)] {
+            let (l, r) = play(output, share, block);
+            let same =
+                |a: &[f32], b: &[f32]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(same(&l, &left) && same(&r, &right), "{output:?}: shared work in blocks of {block} differs");
+        }
+    }
+}
+
 /// Partial `n`'s level in dB over 0.05-0.55 s of `out`: the strongest bin of
 /// a Hann-windowed spectrum within 2 % of n times `f_hz` (a stiff string's
 /// partials run sharp; C3's 14th by well under 2 %).

@@ -423,7 +423,10 @@ fn refuses_a_felt_hysteresis_out_of_its_range() {
         &edited(|c| c["exciter"]["hysteresis"] = serde_json::json!({"epsilon": 1.5, "tau_s": 1e-5})),
         "exciter.hysteresis.epsilon",
     );
-    refuses(&edited(|c| c["exciter"]["hysteresis"] = serde_json::json!({"epsilon": 0.2, "tau_s": 0.0})), "exciter.hysteresis.tau_s");
+    refuses(
+        &edited(|c| c["exciter"]["hysteresis"] = serde_json::json!({"epsilon": 0.2, "tau_s": 0.0})),
+        "exciter.hysteresis.tau_s",
+    );
 }
 
 #[test]
@@ -484,6 +487,8 @@ fn bench_json_holds_every_figure_flat_and_nested() {
         "kernel.fraction_of_fma_probe",
         "kernel.fma_probe_per_s",
         "chord32.realtime_factor",
+        "chord32.realtime_factor_threads",
+        "chord32.threads",
         "chord32.keys",
         "after_release.worst_block_fraction",
         "contact.mode_steps_per_s",
@@ -500,6 +505,7 @@ fn bench_json_holds_every_figure_flat_and_nested() {
     assert_eq!(figure("chord20.worst_block_fraction"), figure("full_keyboard_all.chord20_block_fraction"));
     assert_eq!(figure("chord10.worst_block_fraction"), figure("full_keyboard_all.chord10_block_fraction"));
     assert_eq!(report["chord20"]["keys"], 20);
+    assert_eq!(report["chord32"]["threads_identical"], true, "a render on two threads differs from one: {text}");
     let silent = figure("after_release.silent_after_s");
     assert!(silent.is_null() || silent.as_f64().is_some_and(|s| s > 0.0), "{silent}");
     assert_eq!(report["sample_rate_hz"], 48_000);
@@ -521,6 +527,8 @@ fn bench_json_holds_every_figure_flat_and_nested() {
         "chord10_block",
         "chord20_block",
         "chord32",
+        "chord32_threads",
+        "chord32_threads_identical",
         "idle",
         "after_release_load",
     ] {

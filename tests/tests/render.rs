@@ -435,11 +435,20 @@ fn renders_are_bit_identical_for_any_block_size() {
         assert!(out.status.success(), "{}", stderr(&out));
         std::fs::read(scratch.out()).unwrap()
     };
+    // (By default the work is shared with a second core.)
     let reference = render("64");
     assert_eq!(render("64"), reference, "two runs differ");
     assert_eq!(render("1"), reference, "block size 1");
     assert_eq!(render("4096"), reference, "block size 4096");
     assert_eq!(render("8192"), reference, "block size 8192");
+    assert_eq!(render_one_thread(&scratch, &song, "64"), reference, "on one thread");
+}
+
+/// The song rendered on one thread, in blocks of `block`: the file's bytes.
+fn render_one_thread(scratch: &Scratch, song: &Path, block: &str) -> Vec<u8> {
+    let out = scratch.render(song, &["--tail-s", "0.2", "--block-size", block, "--one-thread", "-q"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::read(scratch.out()).unwrap()
 }
 
 /// Channel 10 (General MIDI drums) is left out unless asked for.

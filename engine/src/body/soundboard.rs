@@ -24,6 +24,7 @@ use super::plate::{BodyMode, shape_at};
 use super::radiation::{MicPosition, pressure_per_acceleration};
 use crate::CONTROL_BLOCK;
 use crate::modal_bank::{LANES, lane_sum};
+use crate::share::Helper;
 
 /// Modes are carried up to this frequency (or 0.45 of the sample rate): above
 /// it a string's partials reach the microphones only through the modes' mass
@@ -141,6 +142,10 @@ pub struct Soundboard {
     step_s: f64,
     gain: f64,
     acc: Box<[[[f64; LANES]; CONTROL_BLOCK]; 2]>,
+    /// The groups from `half` on run apart from those before (on a helper
+    /// thread when given one), into their own accumulators, added to `acc` after.
+    half: usize,
+    acc_half: Box<[[[f64; LANES]; CONTROL_BLOCK]; 2]>,
     modes: usize,
     /// Split: the modes as the right microphone hears them (some key placed in
     /// the stereo image of its own), run beside `re`/`im` (the left's) until
@@ -198,6 +203,9 @@ impl Soundboard {
             step_s: h,
             gain,
             acc: Box::new([[[0.0; LANES]; CONTROL_BLOCK]; 2]),
+            // Whole chains in the first half.
+            half: groups / 2 / BODY_CHAIN * BODY_CHAIN,
+            acc_half: Box::new([[[0.0; LANES]; CONTROL_BLOCK]; 2]),
             modes: planned.len(),
             split: false,
             right_re: vec![[0.0; LANES]; groups],
@@ -309,11 +317,18 @@ impl Soundboard {
     }
 
     /// Run `left.len()` samples (at most a control block) of the zones' forces
-    /// `forces[z][t]` (already at output gain), writing the microphones' signals.
-    /// Real-time safe.
-    pub fn process(&mut self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], left: &mut [f64], right: &mut [f64]) {
+    /// `forces[z][t]` (already at output gain), writing the microphones' signals;
+    /// the second half of the modes on `helper`, if given one (the samples are
+    /// the same either way). Real-time safe without a helper.
+    pub fn process(
+        &mut self,
+        forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        left: &mut [f64],
+        right: &mut [f64],
+        helper: Option<&mut Helper>,
+    ) {
         if self.split {
-            self.process_split(forces, forces, left, right);
+            self.process_split(forces, forces, left, right, helper);
             return;
         }
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
@@ -324,7 +339,7 @@ impl Soundboard {
             right[..n].fill(0.0);
             return;
         }
-        self.run_side(0, forces, &active[..count], n);
+        self.run_side(0, forces, &active[..count], n, helper);
         let [acc_l, acc_r] = &*self.acc;
         for t in 0..n {
             left[t] = lane_sum(&acc_l[t]) + self.direct(0, forces, &active[..count], t);
@@ -343,6 +358,7 @@ impl Soundboard {
         right_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
         left: &mut [f64],
         right: &mut [f64],
+        mut helper: Option<&mut Helper>,
     ) {
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
         let ((active_l, count_l), (active_r, count_r)) =
@@ -359,8 +375,8 @@ impl Soundboard {
             self.right_im.copy_from_slice(&self.im);
             self.split = true;
         }
-        self.run_side(0, left_forces, &active_l[..count_l], n);
-        self.run_side(1, right_forces, &active_r[..count_r], n);
+        self.run_side(0, left_forces, &active_l[..count_l], n, helper.as_deref_mut());
+        self.run_side(1, right_forces, &active_r[..count_r], n, helper);
         for t in 0..n {
             left[t] = lane_sum(&self.acc[0][t]) + self.direct(0, left_forces, &active_l[..count_l], t);
             right[t] = lane_sum(&self.spare[1][t]) + self.direct(1, right_forces, &active_r[..count_r], t);
@@ -384,36 +400,70 @@ impl Soundboard {
     /// Run `n` samples of the `active` zones' forces through the modes as
     /// the left microphone hears them (`side` 0: into `acc`) or the right (1:
     /// the split modes, into `spare`).
-    fn run_side(&mut self, side: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize], n: usize) {
+    fn run_side(
+        &mut self,
+        side: usize,
+        forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        active: &[usize],
+        n: usize,
+        helper: Option<&mut Helper>,
+    ) {
         // The active zones' forces side by side, for the kernel.
         let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
         for (push, &z) in pushes.iter_mut().zip(active) {
             push[..n].copy_from_slice(&forces[z][..n]);
         }
+        let h = self.half;
         let [[lr, li], [rr, ri]] = &self.out;
         let (re, im, [acc_l, acc_r]) = if side == 0 {
             (&mut self.re, &mut self.im, &mut *self.acc)
         } else {
             (&mut self.right_re, &mut self.right_im, &mut *self.spare)
         };
-        acc_l[..n].fill([0.0; LANES]);
-        acc_r[..n].fill([0.0; LANES]);
-        run_block(
-            Modes {
+        let (re, re_half) = re.split_at_mut(h);
+        let (im, im_half) = im.split_at_mut(h);
+        let [half_l, half_r] = &mut *self.acc_half;
+        let (pole_re, pole_im, held_re, held_im, shape) =
+            (&self.pole_re, &self.pole_im, &self.held_re, &self.held_im, &self.shape);
+        let pushes = &pushes;
+        let first = || {
+            acc_l[..n].fill([0.0; LANES]);
+            acc_r[..n].fill([0.0; LANES]);
+            let modes = Modes {
                 re,
                 im,
-                pole_re: &self.pole_re,
-                pole_im: &self.pole_im,
-                held_re: &self.held_re,
-                held_im: &self.held_im,
-                shape: &self.shape,
-                out: [lr, li, rr, ri],
-            },
-            &pushes,
-            active,
-            &mut acc_l[..n],
-            &mut acc_r[..n],
-        );
+                pole_re: &pole_re[..h],
+                pole_im: &pole_im[..h],
+                held_re: &held_re[..h],
+                held_im: &held_im[..h],
+                shape: &shape[..h],
+                out: [&lr[..h], &li[..h], &rr[..h], &ri[..h]],
+            };
+            run_block(modes, pushes, active, &mut acc_l[..n], &mut acc_r[..n]);
+        };
+        let second = || {
+            half_l[..n].fill([0.0; LANES]);
+            half_r[..n].fill([0.0; LANES]);
+            let modes = Modes {
+                re: re_half,
+                im: im_half,
+                pole_re: &pole_re[h..],
+                pole_im: &pole_im[h..],
+                held_re: &held_re[h..],
+                held_im: &held_im[h..],
+                shape: &shape[h..],
+                out: [&lr[h..], &li[h..], &rr[h..], &ri[h..]],
+            };
+            run_block(modes, pushes, active, &mut half_l[..n], &mut half_r[..n]);
+        };
+        crate::share::both(helper, first, second);
+        for (acc, half) in [(acc_l, half_l), (acc_r, half_r)] {
+            for (a, b) in acc[..n].iter_mut().zip(&half[..n]) {
+                for l in 0..LANES {
+                    a[l] += b[l];
+                }
+            }
+        }
     }
 
     /// The force's direct share at microphone `mic` at sample `t`.
@@ -498,7 +548,7 @@ struct Modes<'a> {
     held_re: &'a [[f64; LANES]],
     held_im: &'a [[f64; LANES]],
     shape: &'a [[[f64; LANES]; MAX_ZONES]],
-    out: [&'a Vec<[f64; LANES]>; 4],
+    out: [&'a [[f64; LANES]]; 4],
 }
 
 /// Groups stepped side by side (their chains of dependent operations overlap).
@@ -690,7 +740,7 @@ mod tests {
                     *force = (2.0 * PI * f * time).sin();
                 }
                 let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-                body.process(&forces, &mut l, &mut r);
+                body.process(&forces, &mut l, &mut r, None);
                 if b >= blocks / 2 {
                     sum_l += l.iter().map(|v| v * v).sum::<f64>();
                     sum_r += r.iter().map(|v| v * v).sum::<f64>();

@@ -31,6 +31,7 @@ use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard}
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
+use crate::share::Helper;
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
@@ -222,6 +223,14 @@ pub struct Instrument {
     bridge: Bridge,
     soundboard: Soundboard,
     heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
+    /// Each key's force over a stretch, by its index.
+    forces: Vec<[f64; CONTROL_BLOCK]>,
+    /// Where the keys are cut for sharing (those from `half` on go to the
+    /// helper), set at each control block so that `low_share` of their
+    /// estimated work lies below: a share that follows how long each half
+    /// took.
+    half: usize,
+    low_share: f64,
     /// The pairs of partials of different keys that trade through the body.
     sympathy: Sympathy,
 }
@@ -324,13 +333,16 @@ impl Instrument {
             touch: settings.kind.touch_range(),
             bridge: Bridge::default(),
             soundboard,
+            forces: vec![[0.0; CONTROL_BLOCK]; 128],
+            half: 0,
+            low_share: 0.5,
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             sympathy,
         })
     }
 
     /// Add what `output` hears of this stretch to `left` and `right`.
-    fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64]) {
+    fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64], helper: Option<&mut Helper>) {
         match output {
             Output::BridgeForce => {
                 // The body is not heard: it does not ring on either (heard again, it
@@ -347,9 +359,9 @@ impl Instrument {
                 let [heard_l, heard_r] = &mut *self.heard;
                 if self.bridge.is_split() {
                     let (l, r) = (self.bridge.zone_forces(), self.bridge.zone_forces_right());
-                    self.soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n]);
+                    self.soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
                 } else {
-                    self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n]);
+                    self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
                 }
                 left.iter_mut().zip(&heard_l[..n]).for_each(|(o, v)| *o += v);
                 right.iter_mut().zip(&heard_r[..n]).for_each(|(o, v)| *o += v);
@@ -359,6 +371,62 @@ impl Instrument {
 
     pub fn settings(&self) -> &InstrumentSettings {
         &self.settings
+    }
+
+    /// Cut the keys where the share [`Self::low_share`] of the sounding ones'
+    /// work lies below, for the next control block.
+    fn balance(&mut self) {
+        let work = |key: &Option<Key>| key.as_ref().filter(|k| k.is_sounding()).map_or(0, Key::work);
+        let total = self.keys.iter().map(work).sum::<usize>() as f64;
+        let mut below = 0.0;
+        self.half = self.keys.len();
+        for (k, key) in self.keys.iter().enumerate() {
+            if below >= self.low_share * total {
+                self.half = k;
+                break;
+            }
+            below += work(key) as f64;
+        }
+    }
+
+    /// Sound every key for `n` samples, the keys from [`Self::half`] on on
+    /// `helper` if given one, and drive the bridge with them in the keys'
+    /// order (so where the keys were cut does not change a sample); `watch`
+    /// (a key, its scope) records.
+    fn sound(&mut self, n: usize, helper: Option<&mut Helper>, mut watch: Option<(u8, &mut ScopeWriter)>) {
+        let Some(helper) = helper else {
+            // One thread: each key drives the bridge as soon as it has sounded.
+            let force = &mut self.forces[0][..n];
+            for key in self.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+                sound_key(key, force, watch.as_mut());
+                key.drive(&mut self.bridge, force);
+            }
+            return;
+        };
+        let half = self.half.min(self.keys.len());
+        let (low, high) = self.keys.split_at_mut(half);
+        let (forces_low, forces_high) = self.forces.split_at_mut(half);
+        let (watch_low, watch_high) = match watch {
+            Some((k, scope)) if (k as usize) < half => (Some((k, scope)), None),
+            other => (None, other),
+        };
+        let (mut low_s, mut high_s) = (0.0, 0.0);
+        helper.join(
+            || low_s = sound_keys(low, forces_low, n, watch_low),
+            || high_s = sound_keys(high, forces_high, n, watch_high),
+        );
+        for (key, force) in self.keys.iter_mut().zip(self.forces.iter()) {
+            if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
+                key.drive(&mut self.bridge, &force[..n]);
+            }
+        }
+        if low_s > 0.0 && high_s > 0.0 {
+            // The share below that would have taken as long as the share
+            // above, had each key's work cost what it did, approached gently.
+            let (share, rest) = (self.low_share, 1.0 - self.low_share);
+            let even = (high_s / rest) / (low_s / share + high_s / rest);
+            self.low_share = (share + 0.1 * (even - share)).clamp(0.05, 0.95);
+        }
     }
 
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
@@ -379,6 +447,89 @@ impl Instrument {
     fn route(&mut self, midi_key: u8) -> Option<(&mut Key, usize)> {
         let (home, note) = (*self.route.get(midi_key as usize)?)?;
         Some((self.keys[home as usize].as_mut()?, note as usize))
+    }
+}
+
+/// Each of `keys` that is sounding's force over `n` samples, into its row of
+/// `forces`; `watch` (a key, its scope) records the watched key's contact.
+/// How long it took, s.
+fn sound_keys(
+    keys: &mut [Option<Key>],
+    forces: &mut [[f64; CONTROL_BLOCK]],
+    n: usize,
+    mut watch: Option<(u8, &mut ScopeWriter)>,
+) -> f64 {
+    let start = std::time::Instant::now();
+    for (key, force) in keys.iter_mut().zip(forces.iter_mut()) {
+        if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
+            sound_key(key, &mut force[..n], watch.as_mut());
+        }
+    }
+    start.elapsed().as_secs_f64()
+}
+
+/// `key`'s force over `force.len()` samples; `watch` (a key, its scope)
+/// records the contact if it is the watched key.
+fn sound_key(key: &mut Key, force: &mut [f64], watch: Option<&mut (u8, &mut ScopeWriter)>) {
+    match watch.filter(|(k, _)| *k == key.midi_key()) {
+        Some((_, scope)) => {
+            key.sound(force, scope.contact_slots(force.len()));
+            scope.during_contact(key.watched_string());
+        }
+        None => key.sound(force, None),
+    }
+}
+
+/// What every sounding key is told at a control block.
+#[derive(Clone, Copy)]
+struct KeyTick {
+    block_s: f64,
+    sustain: f64,
+    bend: f64,
+    bebung: f64,
+    phantom: f64,
+    noise: ActionNoise,
+}
+
+impl KeyTick {
+    /// Tell each of `keys` that is sounding, noting in `fallen` the MIDI keys
+    /// of those that fell silent.
+    fn control(&self, keys: &mut [Option<Key>], fallen: &mut Fallen) {
+        for key in keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+            key.set_bebung(self.bebung);
+            key.set_phantom(self.phantom);
+            key.set_noise(self.noise);
+            if key.control(self.block_s, self.sustain, self.bend, SILENCE) {
+                for k in key.take_sounded() {
+                    fallen.push(k);
+                }
+            }
+        }
+    }
+}
+
+/// MIDI keys fallen silent in a control block (each at most once).
+struct Fallen {
+    keys: [u8; 128],
+    len: usize,
+}
+
+impl Default for Fallen {
+    fn default() -> Self {
+        Self { keys: [0; 128], len: 0 }
+    }
+}
+
+impl Fallen {
+    fn push(&mut self, key: u8) {
+        if let Some(slot) = self.keys.get_mut(self.len) {
+            *slot = key;
+            self.len += 1;
+        }
+    }
+
+    fn keys(&self) -> &[u8] {
+        &self.keys[..self.len]
     }
 }
 
@@ -447,11 +598,13 @@ pub struct Synth {
     dc_r: f64,
     /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
     glide: f64,
-    /// One key's force for a stretch, and what every instrument sounding gave.
-    scratch: [f64; CONTROL_BLOCK],
+    /// What every instrument sounding gave.
     mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
+    /// The thread that runs the second halves of the keys and of the body,
+    /// offline (see [`crate::share`]).
+    helper: Option<Helper>,
 }
 
 /// A MIDI key's own note shaping ([`Event::KeyBend`], [`Event::KeyVolume`],
@@ -505,10 +658,10 @@ impl Synth {
             dc: [DcBlock::default(); 2],
             dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
             glide: glide_step(fs),
-            scratch: [0.0; CONTROL_BLOCK],
             mix: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             ended: Vec::with_capacity(1024),
             scope,
+            helper: None,
         };
         (synth, reader)
     }
@@ -593,6 +746,9 @@ impl Synth {
                 self.retire(previous);
             }
         }
+        if self.helper.is_some() {
+            self.current.balance();
+        }
         let fs = self.current.settings.sample_rate_hz;
         self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp();
         self.glide = glide_step(fs);
@@ -617,6 +773,23 @@ impl Synth {
     /// Put back one that could not be handed on yet.
     pub fn keep_retired(&mut self, instrument: Box<Instrument>) {
         self.retire(instrument);
+    }
+
+    /// Share the work with a helper thread (`true`), or keep it on the
+    /// calling thread (`false`, the default, and what the audio thread must
+    /// do). For offline renders; the samples are the same either way. Starts
+    /// or stops the thread: not real-time safe.
+    pub fn share_work(&mut self, share: bool) -> std::io::Result<()> {
+        self.helper = if share { Some(self.helper.take().map_or_else(Helper::start, Ok)?) } else { None };
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            instrument.balance();
+        }
+        Ok(())
+    }
+
+    /// Whether the work is shared with a helper thread.
+    pub fn shares_work(&self) -> bool {
+        self.helper.is_some()
     }
 
     /// Render `left.len()` samples (`right` the same length), applying `events`
@@ -839,18 +1012,25 @@ impl Synth {
             let current = &mut *self.current;
             current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE, phase);
         }
+        let tick = KeyTick { block_s, sustain, bend, bebung, phantom, noise };
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
-                key.set_bebung(bebung);
-                key.set_phantom(phantom);
-                key.set_noise(noise);
-                if key.control(block_s, sustain, bend, SILENCE) {
-                    for k in key.take_sounded() {
-                        if self.ended.len() < self.ended.capacity() {
-                            self.ended.push(KeyEnded { time, key: k });
-                        }
-                    }
+            // Each half of the keys where it sounds (its strings' state stays
+            // in its core's cache), the keys that fell silent in order.
+            let half = instrument.half.min(instrument.keys.len());
+            let (low, high) = instrument.keys.split_at_mut(half);
+            let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
+            crate::share::both(
+                self.helper.as_mut(),
+                || tick.control(low, &mut low_ended),
+                || tick.control(high, &mut high_ended),
+            );
+            for &key in low_ended.keys().iter().chain(high_ended.keys()) {
+                if self.ended.len() < self.ended.capacity() {
+                    self.ended.push(KeyEnded { time, key });
                 }
+            }
+            if self.helper.is_some() {
+                instrument.balance();
             }
         }
         // The outgoing instrument leaves once its keys are silent and its body has rung out.
@@ -877,15 +1057,9 @@ impl Synth {
                 && (instrument.soundboard.is_split()
                     || instrument.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
             instrument.bridge.start(n, output == Output::BridgeForce, split);
-            for key in instrument.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
-                let watched = i == 0 && scope_key == Some(key.midi_key());
-                let contact = if watched { self.scope.contact_slots(n) } else { None };
-                key.sound(&mut instrument.bridge, &mut self.scratch[..n], contact);
-                if watched {
-                    self.scope.during_contact(key.watched_string());
-                }
-            }
-            instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
+            let watch = scope_key.filter(|_| i == 0).map(|k| (k, &mut self.scope));
+            instrument.sound(n, self.helper.as_mut(), watch);
+            instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n], self.helper.as_mut());
         }
         let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
         let mut heard = [0.0f32; CONTROL_BLOCK];

@@ -66,6 +66,8 @@ const CHORD10_ALL_BLOCK_MAX: f64 = 0.25;
 /// The gathered free loop against the FMA probe (issue 20).
 const KERNEL_FRACTION_MIN: f64 = 0.9;
 const CHORD32_FACTOR_MIN: f64 = 100.0;
+/// The same on both cores (issue 20), bit-identical to one.
+const CHORD32_THREADS_FACTOR_MIN: f64 = 300.0;
 const IDLE_LOAD_MAX: f64 = 0.01;
 
 pub fn run(args: &BenchArgs) -> Result<(), Failure> {
@@ -203,12 +205,29 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The 32-note chord, offline.
     out.blank();
-    let (chord32_factor, chord32_keys) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs);
+    let (chord32_factor, chord32_keys, one) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, false);
     out.line(format!(
         "32-note chord ({chord32_keys} keys) held {CHORD32_HELD_S:.0} s, rendered offline in 512-sample blocks"
     ));
     let pass = goals.check("chord32", chord32_factor, AtLeast, CHORD32_FACTOR_MIN);
     out.goal("speed", format!("{chord32_factor:.1}x real time"), format!(">= {CHORD32_FACTOR_MIN:.0}x"), pass);
+    // The same with a second core (as `struck render` does by default).
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = if cores > 1 { 2 } else { 1 };
+    let (threads_factor, _, shared) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, threads > 1);
+    let identical = one.len() == shared.len() && one.iter().zip(&shared).all(|(a, b)| a.to_bits() == b.to_bits());
+    let same = goals.check("chord32_threads_identical", f64::from(u8::from(identical)), AtLeast, 1.0);
+    let pass = goals.check("chord32_threads", threads_factor, AtLeast, CHORD32_THREADS_FACTOR_MIN) && same;
+    out.goal(
+        &format!("on {threads} threads"),
+        format!(
+            "{threads_factor:.1}x real time ({:.2}x one thread), {}",
+            threads_factor / chord32_factor,
+            if identical { "bit-identical" } else { "NOT bit-identical to one thread" }
+        ),
+        format!(">= {CHORD32_THREADS_FACTOR_MIN:.0}x"),
+        pass,
+    );
 
     // Silence.
     out.blank();
@@ -320,6 +339,9 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "held_s": CHORD32_HELD_S,
                 "keys": chord32_keys,
                 "realtime_factor": chord32_factor,
+                "threads": threads,
+                "realtime_factor_threads": threads_factor,
+                "threads_identical": identical,
             },
             "idle": {
                 "audio_s": idle_s,

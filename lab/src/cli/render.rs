@@ -111,6 +111,10 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     pub mpe: Option<f64>,
+    /// Render on one thread. By default a second core takes half of the keys and
+    /// of the body (when the machine has one); the samples are the same either way.
+    #[arg(long)]
+    pub one_thread: bool,
     /// Print nothing on success (and show no progress bar).
     #[arg(long, short)]
     pub quiet: bool,
@@ -188,6 +192,14 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     }
     let (mut synth, _) = Synth::new(Box::new(instrument));
     synth.set_controls(controls);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if !args.one_thread
+        && cores > 1
+        && let Err(e) = synth.share_work(true)
+        && !args.quiet
+    {
+        eprintln!("struck render: rendering on one thread (a second could not be started: {e})");
+    }
 
     if !args.quiet && playable < notes {
         eprintln!(

@@ -215,27 +215,35 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
 }
 
 /// Offline render speed of the 32-note chord held for `held_s`: seconds of audio
-/// per second of computing, fastest of `runs`. Also returns how many keys it sounds.
-pub fn chord32_realtime_factor(held_s: f64, runs: usize) -> (f64, usize) {
+/// per second of computing, fastest of `runs`, on one thread or (`share`)
+/// sharing the work with a second core. Also returns how many keys it sounds,
+/// and the render's samples (the last run's).
+pub fn chord32_realtime_factor(held_s: f64, runs: usize, share: bool) -> (f64, usize, Vec<f32>) {
     let blocks = (held_s * SAMPLE_RATE_HZ / OFFLINE_BLOCK as f64).ceil() as usize;
     let (mut left, mut right) = (vec![0.0f32; OFFLINE_BLOCK], vec![0.0f32; OFFLINE_BLOCK]);
     let notes: Vec<TimedEvent> =
         chord32().into_iter().map(|key| TimedEvent::new(0, Event::NoteOn { key, velocity: VELOCITY })).collect();
     let mut best = f64::INFINITY;
     let mut keys = 0;
+    let mut samples = Vec::with_capacity(2 * blocks * OFFLINE_BLOCK);
     for _ in 0..runs.max(1) {
         let (mut synth, _) = piano(64, Extras::On);
-        let start = Instant::now();
+        synth.share_work(share).expect("a helper thread starts");
+        samples.clear();
+        let mut elapsed = 0.0;
         for b in 0..blocks {
             let events = if b == 0 { &notes[..] } else { &[] };
+            let start = Instant::now();
             synth.process(events, &mut left, &mut right);
+            elapsed += start.elapsed().as_secs_f64();
             if b == 0 {
                 keys = synth.active_keys();
             }
+            samples.extend(left.iter().zip(&right).flat_map(|(l, r)| [*l, *r]));
         }
-        best = best.min(start.elapsed().as_secs_f64());
+        best = best.min(elapsed);
     }
-    (blocks as f64 * OFFLINE_BLOCK as f64 / SAMPLE_RATE_HZ / best, keys)
+    (blocks as f64 * OFFLINE_BLOCK as f64 / SAMPLE_RATE_HZ / best, keys, samples)
 }
 
 /// Load of the piano with nothing played, over `audio_s`, fastest of `runs`.

@@ -178,6 +178,18 @@ fn serve(shared: &Shared) {
     }
 }
 
+impl Drop for Helper {
+    /// Stops the thread and waits for it to end.
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            thread.thread().unpark();
+            // A job's panic was caught and passed on; the loop itself does not panic.
+            let _ = thread.join();
+        }
+    }
+}
+
 /// Run `a` and `b`: side by side if there is a `helper`, else `a` first.
 #[inline]
 pub(crate) fn both<A: FnOnce(), B: FnOnce() + Send>(helper: Option<&mut Helper>, a: A, b: B) {
@@ -236,6 +248,16 @@ mod tests {
         }));
         assert!(result.is_err());
         assert!(done.load(Ordering::Relaxed), "the caller unwound before the helper's half had finished");
+    }
+
+    #[test]
+    fn a_dropped_helper_ends_its_thread() {
+        let helper = Helper::start().unwrap();
+        let shared = Arc::clone(&helper.shared);
+        assert_eq!(Arc::strong_count(&shared), 3);
+        drop(helper);
+        // The thread's own handle on the flags went with it.
+        assert_eq!(Arc::strong_count(&shared), 1);
     }
 
     #[test]

@@ -151,38 +151,72 @@ fn any_block_size_gives_the_same_samples() {
     }
 }
 
+/// What a synth gave over `seconds` in host blocks of `block`: both channels
+/// as computed (before they are rounded to f32), and each key reported
+/// fallen silent, with its sample.
+fn play_exactly(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block: usize) -> [Vec<u64>; 3] {
+    let total = (seconds * FS) as usize;
+    let mut timed: Vec<(usize, Event)> = events.iter().map(|&(t, e)| ((t * FS).round() as usize, e)).collect();
+    timed.sort_by_key(|e| e.0);
+    let (mut left, mut right) = (vec![0.0f64; total], vec![0.0f64; total]);
+    let mut ended = Vec::new();
+    let mut start = 0;
+    while start < total {
+        let end = (start + block).min(total);
+        let block_events: Vec<TimedEvent> = timed
+            .iter()
+            .filter(|e| e.0 >= start && e.0 < end)
+            .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
+            .collect();
+        synth.process_f64(&block_events, &mut left[start..end], &mut right[start..end]);
+        ended.extend(synth.ended_keys().iter().map(|e| ((start as u64 + u64::from(e.time)) << 8) | u64::from(e.key)));
+        start = end;
+    }
+    [left.iter().map(|v| v.to_bits()).collect(), right.iter().map(|v| v.to_bits()).collect(), ended]
+}
+
 #[test]
 fn a_second_core_changes_no_sample() {
     // Through the body (split per microphone once a key is placed) and as the
-    // bridge force; watched by a live view; and across a switch of instrument,
-    // whose keys fade out beside the new one's.
+    // bridge force; watched by a live view; across a switch of instrument,
+    // whose keys fade out beside the new one's; compared before the output is
+    // rounded to f32 (which would hide a sum taken in another order), with
+    // the keys reported fallen silent and the live view's last frame.
     let play = |output: Output, share: bool, block: usize| {
         let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS).heard_through(output);
-        let (mut s, scope) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
+        let (mut s, mut scope) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
         s.set_controls(Controls { output, ..Controls::default() });
         s.share_work(share).unwrap();
         assert_eq!(s.shares_work(), share);
-        let _kept = scope;
         let mut events = session();
         events.extend((36..=96u8).step_by(5).map(|key| (0.012, Event::NoteOn { key, velocity: 0.8 })));
         events.push((0.02, Event::Sustain(1.0)));
-        let mut out = render_stereo(&mut s, 0.3, &events, block);
+        events.push((0.25, Event::Sustain(0.0)));
+        events.extend((36..=96u8).step_by(5).map(|key| (0.26, Event::NoteOff { key, velocity: 0.5 })));
+        let mut out = play_exactly(&mut s, 0.6, &events, block);
         let kind = InstrumentKind::Fortepiano;
         let settings = struck_engine::synth::default_settings(kind, FS).heard_through(output);
         s.install(Box::new(Instrument::build(&settings).unwrap()));
-        let more = render_stereo(&mut s, 0.2, &[(0.01, Event::NoteOn { key: 60, velocity: 0.7 })], block);
-        out.0.extend(more.0);
-        out.1.extend(more.1);
-        out
+        let more = play_exactly(&mut s, 0.2, &[(0.01, Event::NoteOn { key: 60, velocity: 0.7 })], block);
+        for (all, more) in out.iter_mut().zip(more) {
+            all.extend(more);
+        }
+        let frame = scope.latest().map(|f| (f.midi_key, f.contact_len, f.contact_n.to_vec()));
+        (out, frame)
     };
+    // (Across block sizes the samples are the same once rounded to f32:
+    // `any_block_size_gives_the_same_samples`.)
     for output in [Output::Microphones, Output::BridgeForce] {
-        let (left, right) = play(output, false, 64);
-        assert!(rms(&left) > 1e-4, "{output:?}: silent");
-        for (share, block) in [(true, 64), (true, 7), (true, 4096)] {
-            let (l, r) = play(output, share, block);
-            let same =
-                |a: &[f32], b: &[f32]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-            assert!(same(&l, &left) && same(&r, &right), "{output:?}: shared work in blocks of {block} differs");
+        for block in [64, 7, 4096] {
+            let (reference, frame) = play(output, false, block);
+            assert!(reference[0].iter().any(|&v| f64::from_bits(v).abs() > 1e-4), "{output:?}: silent");
+            assert!(!reference[2].is_empty(), "{output:?}: no key fell silent");
+            assert!(frame.is_some(), "{output:?}: the live view saw nothing");
+            let (out, shared_frame) = play(output, true, block);
+            for (channel, name) in [(0, "left"), (1, "right"), (2, "keys fallen silent")] {
+                assert!(out[channel] == reference[channel], "{output:?}: {name} differs, shared in blocks of {block}");
+            }
+            assert!(shared_frame == frame, "{output:?}: the live view differs, shared in blocks of {block}");
         }
     }
 }

@@ -223,8 +223,10 @@ pub struct Instrument {
     bridge: Bridge,
     soundboard: Soundboard,
     heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
-    /// Each key's force over a stretch, by its index.
+    /// Each key's force over a stretch, by its index, and whether it sounded
+    /// (while sharing).
     forces: Vec<[f64; CONTROL_BLOCK]>,
+    sounded: Vec<bool>,
     /// Where the keys are cut for sharing (those from `half` on go to the
     /// helper), set at each control block so that `low_share` of their
     /// estimated work lies below: a share that follows how long each half
@@ -326,6 +328,7 @@ impl Instrument {
         for (k, key, v) in &mut voiced {
             key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
         }
+        let key_count = keys.len();
         Ok(Self {
             settings: settings.clone(),
             keys,
@@ -333,7 +336,8 @@ impl Instrument {
             touch: settings.kind.touch_range(),
             bridge: Bridge::default(),
             soundboard,
-            forces: vec![[0.0; CONTROL_BLOCK]; 128],
+            forces: vec![[0.0; CONTROL_BLOCK]; key_count],
+            sounded: vec![false; key_count],
             half: 0,
             low_share: 0.5,
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
@@ -406,17 +410,18 @@ impl Instrument {
         let half = self.half.min(self.keys.len());
         let (low, high) = self.keys.split_at_mut(half);
         let (forces_low, forces_high) = self.forces.split_at_mut(half);
+        let (sounded_low, sounded_high) = self.sounded.split_at_mut(half);
         let (watch_low, watch_high) = match watch {
             Some((k, scope)) if (k as usize) < half => (Some((k, scope)), None),
             other => (None, other),
         };
         let (mut low_s, mut high_s) = (0.0, 0.0);
         helper.join(
-            || low_s = sound_keys(low, forces_low, n, watch_low),
-            || high_s = sound_keys(high, forces_high, n, watch_high),
+            || low_s = sound_keys(low, (forces_low, sounded_low), n, watch_low),
+            || high_s = sound_keys(high, (forces_high, sounded_high), n, watch_high),
         );
-        for (key, force) in self.keys.iter_mut().zip(self.forces.iter()) {
-            if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
+        for ((key, force), _) in self.keys.iter_mut().zip(&self.forces).zip(&self.sounded).filter(|(_, s)| **s) {
+            if let Some(key) = key.as_mut() {
                 key.drive(&mut self.bridge, &force[..n]);
             }
         }
@@ -451,18 +456,20 @@ impl Instrument {
 }
 
 /// Each of `keys` that is sounding's force over `n` samples, into its row of
-/// `forces`; `watch` (a key, its scope) records the watched key's contact.
-/// How long it took, s.
+/// `forces`, noting in `sounded` which did; `watch` (a key, its scope)
+/// records the watched key's contact. How long it took, s.
 fn sound_keys(
     keys: &mut [Option<Key>],
-    forces: &mut [[f64; CONTROL_BLOCK]],
+    (forces, sounded): (&mut [[f64; CONTROL_BLOCK]], &mut [bool]),
     n: usize,
     mut watch: Option<(u8, &mut ScopeWriter)>,
 ) -> f64 {
     let start = std::time::Instant::now();
-    for (key, force) in keys.iter_mut().zip(forces.iter_mut()) {
+    for ((key, force), sounded) in keys.iter_mut().zip(forces.iter_mut()).zip(sounded.iter_mut()) {
+        *sounded = false;
         if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
             sound_key(key, &mut force[..n], watch.as_mut());
+            *sounded = true;
         }
     }
     start.elapsed().as_secs_f64()
@@ -477,6 +484,25 @@ fn sound_key(key: &mut Key, force: &mut [f64], watch: Option<&mut (u8, &mut Scop
             scope.during_contact(key.watched_string());
         }
         None => key.sound(force, None),
+    }
+}
+
+/// A sample type the synth writes.
+trait OutputSample: Copy {
+    fn from_f64(x: f64) -> Self;
+}
+
+impl OutputSample for f32 {
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x as f32
+    }
+}
+
+impl OutputSample for f64 {
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x
     }
 }
 
@@ -795,6 +821,16 @@ impl Synth {
     /// Render `left.len()` samples (`right` the same length), applying `events`
     /// (sorted by time) at their sample positions. Real-time safe.
     pub fn process(&mut self, events: &[TimedEvent], left: &mut [f32], right: &mut [f32]) {
+        self.process_into(events, left, right);
+    }
+
+    /// [`Self::process`] with the samples as the synth makes them, before
+    /// they are rounded to f32 (for checks that would see the least change).
+    pub fn process_f64(&mut self, events: &[TimedEvent], left: &mut [f64], right: &mut [f64]) {
+        self.process_into(events, left, right);
+    }
+
+    fn process_into<T: OutputSample>(&mut self, events: &[TimedEvent], left: &mut [T], right: &mut [T]) {
         debug_assert_eq!(left.len(), right.len());
         let n = left.len().min(right.len());
         self.ended.clear();
@@ -1044,7 +1080,7 @@ impl Synth {
         }
     }
 
-    fn render(&mut self, left: &mut [f32], right: &mut [f32]) {
+    fn render<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
         let n = left.len();
         let [mix_l, mix_r] = &mut *self.mix;
         mix_l[..n].fill(0.0);
@@ -1070,8 +1106,8 @@ impl Synth {
             self.gain = if (to - self.gain).abs() < 1e-9 { to } else { self.gain + (to - self.gain) * glide };
             let l = self.dc[0].run(mix_l[t], r) * self.gain;
             let rr = self.dc[1].run(mix_r[t], r) * self.gain;
-            left[t] = l as f32;
-            right[t] = rr as f32;
+            left[t] = T::from_f64(l);
+            right[t] = T::from_f64(rr);
             heard[t] = 0.5 * (l + rr) as f32;
         }
         self.scope.samples(&heard[..n]);

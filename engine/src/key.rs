@@ -57,13 +57,13 @@ pub(crate) const MAX_NOTES: usize = 32;
 const PRESSURE_SMOOTHING_S: f64 = 0.015;
 /// Where a key's own strike position may move the hammer, fractions of the string.
 const MIN_STRIKE_POINT: f64 = 0.02;
+const MAX_STRIKE_POINT: f64 = 0.5;
+/// The deepest Bebung, cents at full pressure.
+pub const MAX_BEBUNG_CENTS: f64 = 100.0;
 /// A string's contact in the work a sub-step costs, in modes stepped a
 /// sample (for cutting the keys in halves of like work): a sub-step's solve is
 /// about a hundred modes' steps, and a strike takes about ten a sample.
 const CONTACT_WORK: usize = 1000;
-const MAX_STRIKE_POINT: f64 = 0.5;
-/// The deepest Bebung, cents at full pressure.
-pub const MAX_BEBUNG_CENTS: f64 = 100.0;
 /// The strings are retuned when their pitch has moved by more than this ratio
 /// (0.002 cent).
 const RETUNE_THRESHOLD: f64 = 1.0e-6;
@@ -1465,4 +1465,3 @@ pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
         }
     }
 }
-

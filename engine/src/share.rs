@@ -32,10 +32,29 @@ const SPIN_BEFORE_PARKING: Duration = Duration::from_millis(2);
 /// Spins between looks at the clock.
 const SPINS_PER_LOOK: u32 = 256;
 
+/// Whether handing a half over pays: measured as the clock time of the
+/// shared joins over the time their two halves took (each half side by side
+/// with the other: 0.5; a helper kept waiting for its core: 1 or more),
+/// weighted by that time and forgetting over about [`PAYS_MEMORY`] joins.
+/// Above [`NOT_PAYING`] the halves run on the calling thread one after the
+/// other (the same samples) for [`RETRY_AFTER`] joins, and then the helper
+/// is tried again. (On this virtual machine the second core is at times much
+/// slower for a while: a light piece rendered at half its one-thread speed.)
+const PAYS_MEMORY: f64 = 50.0;
+const NOT_PAYING: f64 = 0.9;
+const RETRY_AFTER: u32 = 3000;
+
 /// A second thread that runs one half of each piece of shared work.
 pub struct Helper {
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
+    /// The shared joins' clock time and their halves' time, decaying, and
+    /// how many have been weighed since the helper was last tried.
+    clock_s: f64,
+    halves_s: f64,
+    weighed: u32,
+    /// Joins left to run on the calling thread.
+    here_for: u32,
 }
 
 struct Shared {
@@ -64,10 +83,11 @@ struct Job {
     slot: *mut (),
 }
 
-/// What a job runs, and the panic it ended in, if it did.
+/// What a job runs, the panic it ended in, if it did, and how long it took.
 struct Slot<B> {
     work: Option<B>,
     panic: Option<Box<dyn Any + Send>>,
+    took: Duration,
 }
 
 /// Run the closure in `slot`, a `Slot<B>`, keeping its panic.
@@ -79,7 +99,9 @@ unsafe fn run_slot<B: FnOnce()>(slot: *mut ()) {
     // SAFETY: as the caller promises.
     let slot = unsafe { &mut *slot.cast::<Slot<B>>() };
     if let Some(work) = slot.work.take() {
+        let start = Instant::now();
         slot.panic = catch_unwind(AssertUnwindSafe(work)).err();
+        slot.took = start.elapsed();
     }
 }
 
@@ -93,28 +115,56 @@ impl Helper {
         });
         let theirs = Arc::clone(&shared);
         let thread = std::thread::Builder::new().name("struck-helper".into()).spawn(move || serve(&theirs))?;
-        Ok(Self { shared, thread: Some(thread) })
+        Ok(Self { shared, thread: Some(thread), clock_s: 0.0, halves_s: 0.0, weighed: 0, here_for: 0 })
+    }
+
+    /// Whether the next join hands its second half over (see [`NOT_PAYING`]).
+    pub fn hands_over(&self) -> bool {
+        self.here_for == 0
     }
 
     /// Run `a` here and `b` on the helper, side by side; return once both
     /// have. A panic in either is passed on (after both have finished).
     /// (`&mut`: one job at a time, and none posted from inside another.)
     pub fn join<A: FnOnce(), B: FnOnce() + Send>(&mut self, a: A, b: B) {
-        let mut slot = Slot { work: Some(b), panic: None };
+        if self.here_for > 0 {
+            self.here_for -= 1;
+            a();
+            b();
+            return;
+        }
+        let start = Instant::now();
+        let mut slot = Slot { work: Some(b), panic: None, took: Duration::ZERO };
         let job = Job { run: run_slot::<B>, slot: (&raw mut slot).cast() };
         self.shared.done.store(false, Ordering::Relaxed);
         self.shared.job.store((&raw const job).cast_mut(), Ordering::Release);
         if let Some(thread) = &self.thread {
             thread.thread().unpark();
         }
-        {
+        let here = {
             // Waits for the helper however `a` ends: `slot` and `job` must
             // outlive its run of them.
             let _wait = WaitForHelper(&self.shared);
             a();
-        }
+            start.elapsed()
+        };
         if let Some(panic) = slot.panic.take() {
             resume_unwind(panic);
+        }
+        self.note(start.elapsed(), here + slot.took);
+    }
+
+    /// Weigh a shared join that took `clock` for halves that took `halves`.
+    fn note(&mut self, clock: Duration, halves: Duration) {
+        let keep = 1.0 - 1.0 / PAYS_MEMORY;
+        self.clock_s = keep * self.clock_s + clock.as_secs_f64();
+        self.halves_s = keep * self.halves_s + halves.as_secs_f64();
+        self.weighed = self.weighed.saturating_add(1);
+        // Judged on as many joins as it remembers (one strike's block alone
+        // may leave one half with all the work).
+        if self.weighed >= PAYS_MEMORY as u32 && self.clock_s > NOT_PAYING * self.halves_s {
+            self.here_for = RETRY_AFTER;
+            (self.clock_s, self.halves_s, self.weighed) = (0.0, 0.0, 0);
         }
     }
 }
@@ -248,6 +298,28 @@ mod tests {
         }));
         assert!(result.is_err());
         assert!(done.load(Ordering::Relaxed), "the caller unwound before the helper's half had finished");
+    }
+
+    #[test]
+    fn a_helper_that_does_not_pay_is_left_alone_for_a_while() {
+        let mut helper = Helper::start().unwrap();
+        let here = std::thread::current().id();
+        let mut ran_on = Vec::new();
+        for _ in 0..200 {
+            let mut on = None;
+            // The helper's half is all the work: handing it over saves nothing.
+            helper.join(
+                || (),
+                || {
+                    std::thread::sleep(Duration::from_micros(100));
+                    on = Some(std::thread::current().id());
+                },
+            );
+            ran_on.push(on.unwrap());
+        }
+        assert_ne!(ran_on[0], here, "the first join hands over");
+        assert_eq!(ran_on[199], here, "still handing over a half that does not pay");
+        assert!(!helper.hands_over());
     }
 
     #[test]

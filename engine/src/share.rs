@@ -119,7 +119,8 @@ impl Helper {
     }
 
     /// Whether the next join hands its second half over (see [`NOT_PAYING`]).
-    pub fn hands_over(&self) -> bool {
+    #[cfg(test)]
+    fn hands_over(&self) -> bool {
         self.here_for == 0
     }
 

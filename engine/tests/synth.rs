@@ -181,7 +181,9 @@ fn a_second_core_changes_no_sample() {
     // bridge force; watched by a live view; across a switch of instrument,
     // whose keys fade out beside the new one's; compared before the output is
     // rounded to f32 (which would hide a sum taken in another order), with
-    // the keys reported fallen silent and the live view's last frame.
+    // the keys reported fallen silent and the live view's last frame. (A
+    // helper hands over at least its first fifty joins, the strikes among
+    // them, before it judges whether handing over pays.)
     let play = |output: Output, share: bool, block: usize| {
         let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS).heard_through(output);
         let (mut s, mut scope) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));

@@ -10,7 +10,9 @@
 //! always takes the second half: its keys' state stays in its core's cache.
 //! (A work-stealing pool ran the halves on either core and slept between
 //! them: the 32-note chord rendered slower on two cores than on one.) The
-//! helper parks after two milliseconds without work.
+//! helper parks after two milliseconds without work, and at once while the
+//! caller runs alone: sharing is tried now and then against running alone,
+//! and kept only while it is the faster ([`Helper::judge`]).
 //!
 //! The real-time plugin never shares: its audio thread may not wait on another.
 
@@ -32,29 +34,52 @@ const SPIN_BEFORE_PARKING: Duration = Duration::from_millis(2);
 /// Spins between looks at the clock.
 const SPINS_PER_LOOK: u32 = 256;
 
-/// Whether handing a half over pays: measured as the clock time of the
-/// shared joins over the time their two halves took (each half side by side
-/// with the other: 0.5; a helper kept waiting for its core: 1 or more),
-/// weighted by that time and forgetting over about [`PAYS_MEMORY`] joins.
-/// Above [`NOT_PAYING`] the halves run on the calling thread one after the
-/// other (the same samples) for [`RETRY_AFTER`] joins, and then the helper
-/// is tried again. (On this virtual machine the second core is at times much
-/// slower for a while: a light piece rendered at half its one-thread speed.)
-const PAYS_MEMORY: f64 = 50.0;
-const NOT_PAYING: f64 = 0.9;
-const RETRY_AFTER: u32 = 3000;
+/// Whether sharing pays is judged on whole blocks, by the caller's clock
+/// (see [`Helper::judge`]): a trial runs [`TRIAL_QUARTER`] control blocks
+/// shared, twice that many alone, then as many shared again (so a load that
+/// grows or shrinks steadily weighs on both alike), comparing the clock time
+/// per unit of estimated work. Whichever was faster runs for [`KEEP_BLOCKS`],
+/// then the next trial. Sharing must be faster by [`SHARE_BELOW`] to be kept.
+/// (A check on each join, its clock time against its halves', missed what
+/// sharing costs outside the joins: this virtual machine's second core is at
+/// times much slower, or slows the first, and the 32-note chord rendered at
+/// 0.8 of its one-thread speed.)
+const TRIAL_QUARTER: u32 = 96;
+const KEEP_BLOCKS: u32 = 3072;
+const SHARE_BELOW: f64 = 0.95;
+
+/// Where a helper stands in its trials.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// The trial's first shared quarter, the alone half, the last shared quarter.
+    First,
+    Alone,
+    Last,
+    /// The trial's winner, kept for a while.
+    Keep {
+        shared: bool,
+    },
+}
+
+/// What a trial has measured: clock time and estimated work, shared and alone.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Tally {
+    shared_s: f64,
+    shared_work: f64,
+    alone_s: f64,
+    alone_work: f64,
+}
 
 /// A second thread that runs one half of each piece of shared work.
 pub struct Helper {
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
-    /// The shared joins' clock time and their halves' time, decaying, and
-    /// how many have been weighed since the helper was last tried.
-    clock_s: f64,
-    halves_s: f64,
-    weighed: u32,
-    /// Joins left to run on the calling thread.
-    here_for: u32,
+    /// The trial's stage, control blocks left in it, and what it measured.
+    stage: Stage,
+    blocks_left: u32,
+    tally: Tally,
+    /// Whether it judges at all (else it always hands over).
+    judging: bool,
 }
 
 struct Shared {
@@ -62,6 +87,8 @@ struct Shared {
     job: CachePadded<AtomicPtr<Job>>,
     /// Set by the helper once the posted job has run.
     done: CachePadded<AtomicBool>,
+    /// Set while the caller runs alone: the helper parks at once.
+    rest: AtomicBool,
     stop: AtomicBool,
 }
 
@@ -83,11 +110,10 @@ struct Job {
     slot: *mut (),
 }
 
-/// What a job runs, the panic it ended in, if it did, and how long it took.
+/// What a job runs, and the panic it ended in, if it did.
 struct Slot<B> {
     work: Option<B>,
     panic: Option<Box<dyn Any + Send>>,
-    took: Duration,
 }
 
 /// Run the closure in `slot`, a `Slot<B>`, keeping its panic.
@@ -99,9 +125,7 @@ unsafe fn run_slot<B: FnOnce()>(slot: *mut ()) {
     // SAFETY: as the caller promises.
     let slot = unsafe { &mut *slot.cast::<Slot<B>>() };
     if let Some(work) = slot.work.take() {
-        let start = Instant::now();
         slot.panic = catch_unwind(AssertUnwindSafe(work)).err();
-        slot.took = start.elapsed();
     }
 }
 
@@ -111,61 +135,106 @@ impl Helper {
         let shared = Arc::new(Shared {
             job: CachePadded(AtomicPtr::new(std::ptr::null_mut())),
             done: CachePadded(AtomicBool::new(false)),
+            rest: AtomicBool::new(false),
             stop: AtomicBool::new(false),
         });
         let theirs = Arc::clone(&shared);
         let thread = std::thread::Builder::new().name("struck-helper".into()).spawn(move || serve(&theirs))?;
-        Ok(Self { shared, thread: Some(thread), clock_s: 0.0, halves_s: 0.0, weighed: 0, here_for: 0 })
+        Ok(Self {
+            shared,
+            thread: Some(thread),
+            stage: Stage::First,
+            blocks_left: TRIAL_QUARTER,
+            tally: Tally::default(),
+            judging: true,
+        })
     }
 
-    /// Whether the next join hands its second half over (see [`NOT_PAYING`]).
-    #[cfg(test)]
-    fn hands_over(&self) -> bool {
-        self.here_for == 0
+    /// Whether the joins hand their second halves over now (see [`TRIAL_QUARTER`]).
+    pub fn hands_over(&self) -> bool {
+        !matches!(self.stage, Stage::Alone | Stage::Keep { shared: false })
+    }
+
+    /// Hand every join over from now on, never judging whether it pays (for
+    /// tests that must see the work shared).
+    pub fn always_hand_over(&mut self) {
+        self.judging = false;
+        self.stage = Stage::Keep { shared: true };
+        self.shared.rest.store(false, Ordering::Release);
+        if let Some(thread) = &self.thread {
+            thread.thread().unpark();
+        }
+    }
+
+    /// Weigh a stretch of the caller's work that took `took` on its clock,
+    /// `blocks` control blocks of `work` (an estimate in any unit that grows
+    /// with the work: the same for the same work whether shared or not),
+    /// and move the trial on (see [`TRIAL_QUARTER`]). A stage ends after the
+    /// stretch that completes its blocks.
+    pub fn judge(&mut self, took: Duration, work: f64, blocks: u32) {
+        if !self.judging {
+            return;
+        }
+        let shared = self.hands_over();
+        if let Stage::First | Stage::Alone | Stage::Last = self.stage {
+            let t = &mut self.tally;
+            if shared {
+                (t.shared_s, t.shared_work) = (t.shared_s + took.as_secs_f64(), t.shared_work + work);
+            } else {
+                (t.alone_s, t.alone_work) = (t.alone_s + took.as_secs_f64(), t.alone_work + work);
+            }
+        }
+        self.blocks_left = self.blocks_left.saturating_sub(blocks);
+        if self.blocks_left > 0 {
+            return;
+        }
+        (self.stage, self.blocks_left) = match self.stage {
+            Stage::First => (Stage::Alone, 2 * TRIAL_QUARTER),
+            Stage::Alone => (Stage::Last, TRIAL_QUARTER),
+            Stage::Last => {
+                let t = std::mem::take(&mut self.tally);
+                // Per unit of work; with no work measured, sharing has nothing to gain.
+                let pays = t.shared_work > 0.0
+                    && t.alone_work > 0.0
+                    && t.shared_s / t.shared_work < SHARE_BELOW * (t.alone_s / t.alone_work);
+                (Stage::Keep { shared: pays }, KEEP_BLOCKS)
+            }
+            Stage::Keep { .. } => (Stage::First, TRIAL_QUARTER),
+        };
+        if self.hands_over() {
+            self.shared.rest.store(false, Ordering::Release);
+            if let Some(thread) = &self.thread {
+                thread.thread().unpark();
+            }
+        } else {
+            self.shared.rest.store(true, Ordering::Release);
+        }
     }
 
     /// Run `a` here and `b` on the helper, side by side; return once both
     /// have. A panic in either is passed on (after both have finished).
     /// (`&mut`: one job at a time, and none posted from inside another.)
     pub fn join<A: FnOnce(), B: FnOnce() + Send>(&mut self, a: A, b: B) {
-        if self.here_for > 0 {
-            self.here_for -= 1;
+        if !self.hands_over() {
             a();
             b();
             return;
         }
-        let start = Instant::now();
-        let mut slot = Slot { work: Some(b), panic: None, took: Duration::ZERO };
+        let mut slot = Slot { work: Some(b), panic: None };
         let job = Job { run: run_slot::<B>, slot: (&raw mut slot).cast() };
         self.shared.done.store(false, Ordering::Relaxed);
         self.shared.job.store((&raw const job).cast_mut(), Ordering::Release);
         if let Some(thread) = &self.thread {
             thread.thread().unpark();
         }
-        let here = {
+        {
             // Waits for the helper however `a` ends: `slot` and `job` must
             // outlive its run of them.
             let _wait = WaitForHelper(&self.shared);
             a();
-            start.elapsed()
-        };
+        }
         if let Some(panic) = slot.panic.take() {
             resume_unwind(panic);
-        }
-        self.note(start.elapsed(), here + slot.took);
-    }
-
-    /// Weigh a shared join that took `clock` for halves that took `halves`.
-    fn note(&mut self, clock: Duration, halves: Duration) {
-        let keep = 1.0 - 1.0 / PAYS_MEMORY;
-        self.clock_s = keep * self.clock_s + clock.as_secs_f64();
-        self.halves_s = keep * self.halves_s + halves.as_secs_f64();
-        self.weighed = self.weighed.saturating_add(1);
-        // Judged on as many joins as it remembers (one strike's block alone
-        // may leave one half with all the work).
-        if self.weighed >= PAYS_MEMORY as u32 && self.clock_s > NOT_PAYING * self.halves_s {
-            self.here_for = RETRY_AFTER;
-            (self.clock_s, self.halves_s, self.weighed) = (0.0, 0.0, 0);
         }
     }
 }
@@ -211,6 +280,10 @@ fn serve(shared: &Shared) {
             idle = 0;
         } else if shared.stop.load(Ordering::Acquire) {
             return;
+        } else if shared.rest.load(Ordering::Relaxed) {
+            // The caller runs alone for a while: out of its way at once.
+            std::thread::park();
+            idle = 0;
         } else {
             if idle == 0 {
                 idle_since = Instant::now();
@@ -301,26 +374,88 @@ mod tests {
         assert!(done.load(Ordering::Relaxed), "the caller unwound before the helper's half had finished");
     }
 
-    #[test]
-    fn a_helper_that_does_not_pay_is_left_alone_for_a_while() {
-        let mut helper = Helper::start().unwrap();
+    /// Where each of 10 joins ran: on this thread or not.
+    fn joins_here(helper: &mut Helper) -> Vec<bool> {
         let here = std::thread::current().id();
-        let mut ran_on = Vec::new();
-        for _ in 0..200 {
-            let mut on = None;
-            // The helper's half is all the work: handing it over saves nothing.
-            helper.join(
-                || (),
-                || {
-                    std::thread::sleep(Duration::from_micros(100));
-                    on = Some(std::thread::current().id());
-                },
-            );
-            ran_on.push(on.unwrap());
+        (0..10)
+            .map(|_| {
+                let mut on = None;
+                helper.join(|| (), || on = Some(std::thread::current().id()));
+                on == Some(here)
+            })
+            .collect()
+    }
+
+    /// Run one trial, each stretch one control block of one unit of work,
+    /// taking `shared_us` shared and `alone_us` alone.
+    fn trial(helper: &mut Helper, shared_us: u64, alone_us: u64) {
+        for _ in 0..4 * TRIAL_QUARTER {
+            let us = if helper.hands_over() { shared_us } else { alone_us };
+            helper.judge(Duration::from_micros(us), 1.0, 1);
         }
-        assert_ne!(ran_on[0], here, "the first join hands over");
-        assert_eq!(ran_on[199], here, "still handing over a half that does not pay");
+    }
+
+    #[test]
+    fn sharing_is_kept_only_while_a_trial_finds_it_faster() {
+        let mut helper = Helper::start().unwrap();
+        // A trial shares for its first quarter, runs alone for half, shares again.
+        assert!(joins_here(&mut helper).iter().all(|&here| !here), "a trial starts shared");
+        for _ in 0..TRIAL_QUARTER {
+            helper.judge(Duration::from_micros(10), 1.0, 1);
+        }
+        assert!(joins_here(&mut helper).iter().all(|&here| here), "the trial's middle runs alone");
+        for _ in 0..2 * TRIAL_QUARTER {
+            helper.judge(Duration::from_micros(10), 1.0, 1);
+        }
+        assert!(helper.hands_over(), "the trial's last quarter shares");
+        for _ in 0..TRIAL_QUARTER {
+            helper.judge(Duration::from_micros(10), 1.0, 1);
+        }
+        // Equal speeds: sharing has not paid.
         assert!(!helper.hands_over());
+        assert!(joins_here(&mut helper).iter().all(|&here| here));
+        // It is tried again after a while, and now pays.
+        helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
+        assert!(helper.hands_over(), "tried again");
+        trial(&mut helper, 8, 10);
+        assert!(helper.hands_over());
+        // The parked helper woke for its work.
+        assert!(joins_here(&mut helper).iter().all(|&here| !here));
+        // Per unit of work: a shared stretch that did twice the work in 1.5
+        // times the time pays, one that did the same work in 1.5 times does not.
+        helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
+        for _ in 0..4 * TRIAL_QUARTER {
+            let (us, work) = if helper.hands_over() { (15, 2.0) } else { (10, 1.0) };
+            helper.judge(Duration::from_micros(us), work, 1);
+        }
+        assert!(helper.hands_over());
+        helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
+        trial(&mut helper, 15, 10);
+        assert!(!helper.hands_over());
+    }
+
+    #[test]
+    fn a_helper_told_to_always_hand_over_does_so() {
+        let mut helper = Helper::start().unwrap();
+        helper.always_hand_over();
+        trial(&mut helper, 1000, 1);
+        helper.judge(Duration::from_micros(1000), 1.0, 10 * KEEP_BLOCKS);
+        assert!(joins_here(&mut helper).iter().all(|&here| !here));
+    }
+
+    #[test]
+    fn a_stretch_of_many_blocks_ends_a_stage_and_no_more() {
+        let mut helper = Helper::start().unwrap();
+        helper.judge(Duration::from_micros(10), 1.0, 10 * TRIAL_QUARTER);
+        assert_eq!(helper.stage, Stage::Alone);
+        helper.judge(Duration::from_micros(10), 1.0, 10 * TRIAL_QUARTER);
+        assert_eq!(helper.stage, Stage::Last);
+        // No work measured: sharing has nothing to gain.
+        let mut silent = Helper::start().unwrap();
+        for _ in 0..4 * TRIAL_QUARTER {
+            silent.judge(Duration::from_micros(1), 0.0, 1);
+        }
+        assert_eq!(silent.stage, Stage::Keep { shared: false });
     }
 
     #[test]

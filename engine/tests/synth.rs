@@ -181,15 +181,25 @@ fn a_second_core_changes_no_sample() {
     // bridge force; watched by a live view; across a switch of instrument,
     // whose keys fade out beside the new one's; compared before the output is
     // rounded to f32 (which would hide a sum taken in another order), with
-    // the keys reported fallen silent and the live view's last frame. (A
-    // helper hands over at least its first fifty joins, the strikes among
-    // them, before it judges whether handing over pays.)
-    let play = |output: Output, share: bool, block: usize| {
+    // the keys reported fallen silent and the live view's last frame; with
+    // every piece of work handed over, and as a render shares it (trying
+    // now and then whether that pays, so the cores take turns).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Cores {
+        One,
+        Two,
+        TwoAlways,
+    }
+    let play = |output: Output, cores: Cores, block: usize| {
         let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS).heard_through(output);
         let (mut s, mut scope) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
         s.set_controls(Controls { output, ..Controls::default() });
-        s.share_work(share).unwrap();
-        assert_eq!(s.shares_work(), share);
+        match cores {
+            Cores::One => s.share_work(false).unwrap(),
+            Cores::Two => s.share_work(true).unwrap(),
+            Cores::TwoAlways => s.share_all_work().unwrap(),
+        }
+        assert_eq!(s.shares_work(), cores != Cores::One);
         let mut events = session();
         events.extend((36..=96u8).step_by(5).map(|key| (0.012, Event::NoteOn { key, velocity: 0.8 })));
         events.push((0.02, Event::Sustain(1.0)));
@@ -210,15 +220,21 @@ fn a_second_core_changes_no_sample() {
     // `any_block_size_gives_the_same_samples`.)
     for output in [Output::Microphones, Output::BridgeForce] {
         for block in [64, 7, 4096] {
-            let (reference, frame) = play(output, false, block);
+            let (reference, frame) = play(output, Cores::One, block);
             assert!(reference[0].iter().any(|&v| f64::from_bits(v).abs() > 1e-4), "{output:?}: silent");
             assert!(!reference[2].is_empty(), "{output:?}: no key fell silent");
             assert!(frame.is_some(), "{output:?}: the live view saw nothing");
-            let (out, shared_frame) = play(output, true, block);
-            for (channel, name) in [(0, "left"), (1, "right"), (2, "keys fallen silent")] {
-                assert!(out[channel] == reference[channel], "{output:?}: {name} differs, shared in blocks of {block}");
+            let judged = if block == 64 { &[Cores::TwoAlways, Cores::Two][..] } else { &[Cores::TwoAlways] };
+            for &cores in judged {
+                let (out, shared_frame) = play(output, cores, block);
+                for (channel, name) in [(0, "left"), (1, "right"), (2, "keys fallen silent")] {
+                    assert!(
+                        out[channel] == reference[channel],
+                        "{output:?}: {name} differs, {cores:?}, blocks of {block}"
+                    );
+                }
+                assert!(shared_frame == frame, "{output:?}: the live view differs, {cores:?}, blocks of {block}");
             }
-            assert!(shared_frame == frame, "{output:?}: the live view differs, shared in blocks of {block}");
         }
     }
 }

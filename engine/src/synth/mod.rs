@@ -233,6 +233,9 @@ pub struct Instrument {
     /// took.
     half: usize,
     low_share: f64,
+    /// The estimated work of the next control block, while sharing: its
+    /// keys' ([`Key::work`]) and its body's modes while they ring.
+    work: usize,
     /// The pairs of partials of different keys that trade through the body.
     sympathy: Sympathy,
 }
@@ -340,6 +343,7 @@ impl Instrument {
             sounded: vec![false; key_count],
             half: 0,
             low_share: 0.5,
+            work: 0,
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             sympathy,
         })
@@ -381,7 +385,9 @@ impl Instrument {
     /// work lies below, for the next control block.
     fn balance(&mut self) {
         let work = |key: &Option<Key>| key.as_ref().filter(|k| k.is_sounding()).map_or(0, Key::work);
-        let total = self.keys.iter().map(work).sum::<usize>() as f64;
+        let keys = self.keys.iter().map(work).sum::<usize>();
+        self.work = keys + if self.soundboard.is_resting() { 0 } else { self.soundboard.mode_count() };
+        let total = keys as f64;
         let mut below = 0.0;
         self.half = self.keys.len();
         for (k, key) in self.keys.iter().enumerate() {
@@ -813,6 +819,16 @@ impl Synth {
         Ok(())
     }
 
+    /// Share the work with a helper thread, handing every piece over
+    /// whether or not that pays (for tests that must see it shared).
+    pub fn share_all_work(&mut self) -> std::io::Result<()> {
+        self.share_work(true)?;
+        if let Some(helper) = self.helper.as_mut() {
+            helper.always_hand_over();
+        }
+        Ok(())
+    }
+
     /// Whether the work is shared with a helper thread.
     pub fn shares_work(&self) -> bool {
         self.helper.is_some()
@@ -834,6 +850,9 @@ impl Synth {
         debug_assert_eq!(left.len(), right.len());
         let n = left.len().min(right.len());
         self.ended.clear();
+        // While sharing: the work this call does, judged against its time.
+        let started = self.helper.is_some().then(std::time::Instant::now);
+        let (mut work, mut blocks) = (0, 0);
         let mut pos = 0;
         let mut next_event = 0;
         while pos < n {
@@ -844,6 +863,10 @@ impl Synth {
             let phase = (self.clock % CONTROL_BLOCK as u64) as usize;
             if phase == 0 {
                 self.control(pos as u32);
+                if started.is_some() {
+                    work += self.current.work + self.outgoing.as_ref().map_or(0, |o| o.work);
+                    blocks += 1;
+                }
             }
             let until_event = events.get(next_event).map_or(n, |e| (e.time as usize).min(n));
             // While a strike is being recorded for the live view, finer chunks let it
@@ -857,6 +880,9 @@ impl Synth {
         // Events stamped past the block's end still happen, at its end.
         for e in &events[next_event..] {
             self.handle(e.event);
+        }
+        if let (Some(helper), Some(started)) = (self.helper.as_mut(), started) {
+            helper.judge(started.elapsed(), work as f64, blocks);
         }
     }
 

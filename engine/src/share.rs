@@ -62,7 +62,7 @@ enum Stage {
 }
 
 /// What a trial has measured: clock time and estimated work, shared and alone.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Tally {
     shared_s: f64,
     shared_work: f64,
@@ -87,8 +87,12 @@ struct Shared {
     job: CachePadded<AtomicPtr<Job>>,
     /// Set by the helper once the posted job has run.
     done: CachePadded<AtomicBool>,
-    /// Set while the caller runs alone: the helper parks at once.
+    /// Set while the caller runs alone: the helper parks at once. (Advisory:
+    /// it guards no data, and a job is never posted while it is set.)
     rest: AtomicBool,
+    /// How many times the helper has parked to rest.
+    #[cfg(test)]
+    rests: std::sync::atomic::AtomicU32,
     stop: AtomicBool,
 }
 
@@ -136,6 +140,8 @@ impl Helper {
             job: CachePadded(AtomicPtr::new(std::ptr::null_mut())),
             done: CachePadded(AtomicBool::new(false)),
             rest: AtomicBool::new(false),
+            #[cfg(test)]
+            rests: std::sync::atomic::AtomicU32::new(0),
             stop: AtomicBool::new(false),
         });
         let theirs = Arc::clone(&shared);
@@ -151,7 +157,7 @@ impl Helper {
     }
 
     /// Whether the joins hand their second halves over now (see [`TRIAL_QUARTER`]).
-    pub fn hands_over(&self) -> bool {
+    fn hands_over(&self) -> bool {
         !matches!(self.stage, Stage::Alone | Stage::Keep { shared: false })
     }
 
@@ -160,7 +166,7 @@ impl Helper {
     pub fn always_hand_over(&mut self) {
         self.judging = false;
         self.stage = Stage::Keep { shared: true };
-        self.shared.rest.store(false, Ordering::Release);
+        self.shared.rest.store(false, Ordering::Relaxed);
         if let Some(thread) = &self.thread {
             thread.thread().unpark();
         }
@@ -201,13 +207,12 @@ impl Helper {
             }
             Stage::Keep { .. } => (Stage::First, TRIAL_QUARTER),
         };
-        if self.hands_over() {
-            self.shared.rest.store(false, Ordering::Release);
-            if let Some(thread) = &self.thread {
-                thread.thread().unpark();
-            }
-        } else {
-            self.shared.rest.store(true, Ordering::Release);
+        // (Woken ahead of its first job, which would wake it too.)
+        self.shared.rest.store(!self.hands_over(), Ordering::Relaxed);
+        if self.hands_over()
+            && let Some(thread) = &self.thread
+        {
+            thread.thread().unpark();
         }
     }
 
@@ -282,6 +287,8 @@ fn serve(shared: &Shared) {
             return;
         } else if shared.rest.load(Ordering::Relaxed) {
             // The caller runs alone for a while: out of its way at once.
+            #[cfg(test)]
+            shared.rests.fetch_add(1, Ordering::Relaxed);
             std::thread::park();
             idle = 0;
         } else {
@@ -411,16 +418,28 @@ mod tests {
         for _ in 0..TRIAL_QUARTER {
             helper.judge(Duration::from_micros(10), 1.0, 1);
         }
-        // Equal speeds: sharing has not paid.
+        // Equal speeds: sharing has not paid. The helper has gone to rest.
         assert!(!helper.hands_over());
         assert!(joins_here(&mut helper).iter().all(|&here| here));
+        let rested = || helper.shared.rests.load(Ordering::Relaxed) > 0;
+        let since = Instant::now();
+        while !rested() && since.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert!(rested(), "the helper did not park while the caller ran alone");
         // It is tried again after a while, and now pays.
         helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
         assert!(helper.hands_over(), "tried again");
         trial(&mut helper, 8, 10);
         assert!(helper.hands_over());
-        // The parked helper woke for its work.
         assert!(joins_here(&mut helper).iter().all(|&here| !here));
+        // Sharing must be more than 5 % faster: 3 % is not enough.
+        helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
+        trial(&mut helper, 97, 100);
+        assert!(!helper.hands_over(), "kept sharing for 3 %");
+        helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
+        trial(&mut helper, 90, 100);
+        assert!(helper.hands_over(), "dropped sharing at 10 %");
         // Per unit of work: a shared stretch that did twice the work in 1.5
         // times the time pays, one that did the same work in 1.5 times does not.
         helper.judge(Duration::from_micros(10), 1.0, KEEP_BLOCKS);
@@ -450,10 +469,12 @@ mod tests {
         assert_eq!(helper.stage, Stage::Alone);
         helper.judge(Duration::from_micros(10), 1.0, 10 * TRIAL_QUARTER);
         assert_eq!(helper.stage, Stage::Last);
-        // No work measured: sharing has nothing to gain.
+        // No work measured alone (a pause in the music), however fast the
+        // shared stretches: nothing to judge by, so it runs alone.
         let mut silent = Helper::start().unwrap();
         for _ in 0..4 * TRIAL_QUARTER {
-            silent.judge(Duration::from_micros(1), 0.0, 1);
+            let work = if silent.hands_over() { 1.0 } else { 0.0 };
+            silent.judge(Duration::from_micros(1), work, 1);
         }
         assert_eq!(silent.stage, Stage::Keep { shared: false });
     }

@@ -92,10 +92,12 @@ pub(crate) const TRADE_BLOCKS: usize = 16;
 /// control blocks (10.7 ms at 48 kHz). Each pair's forced answer over the
 /// interval is exact for a freely turning partner, but a partial trades with
 /// a dozen partners at once, and the explicit step's error grows with the
-/// interval: a held C4's difference with the pedal down is -7.7 dB at 8
-/// blocks and -7.3 at 4. (Shorter intervals are not comparable: the pairs
-/// dropped as negligible are judged per interval, and at 2 blocks so many
-/// fall under it that the difference is -16.5 dB.)
+/// interval: a held C4's difference with the pedal down is -8.2 dB at 8
+/// blocks and -9.5 at 4 (each key taking from its partners at its own block
+/// of the interval; -8.4 and -9.5 when each pair traded both ways at once).
+/// (Shorter intervals are not comparable: the pairs dropped as negligible
+/// are judged per interval, and at 2 blocks so many fall under it that the
+/// difference was -16.5 dB.)
 pub(crate) const SYMPATHY_BLOCKS: usize = 8;
 
 /// A silent key is woken by the other strings only by a drive this many

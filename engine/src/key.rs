@@ -112,7 +112,8 @@ const WAKE_OVER_SILENCE: f64 = 3.0;
 const CULL_EVERY_BLOCKS: u8 = 4;
 
 /// A key the other strings move stays sounding for this many control blocks
-/// after they last did (they trade every [`SYMPATHY_BLOCKS`]).
+/// after they last did (it takes from them at its own block of every
+/// [`SYMPATHY_BLOCKS`], before the keys' control counts down: one to spare).
 const DRIVEN_BLOCKS: usize = SYMPATHY_BLOCKS + 1;
 
 /// Keys above this make no phantom partials (Conklin's and Bank's are the

@@ -18,8 +18,9 @@
 //! (e^((lambda_a - lambda_b) h) - 1) / (lambda_a - lambda_b), the forced
 //! response of its pole to the other's. Partials far apart in pitch barely answer; only pairs within
 //! [`WINDOW_HZ`] are kept, and pairs whose answer stays under [`NEGLIGIBLE`].
-//! The work is spread over the interval: each block an eighth of the keys
-//! take what their partners' partials give them over an interval (each
+//! The work is spread over the interval: each block one in
+//! [`crate::key::SYMPATHY_BLOCKS`] of the keys take what their sounding
+//! partners' partials give them over an interval (each
 //! partner's sum over its strings taken when a pair first needs it), each of
 //! their partials once; a silent key takes it only if its damper is off, and
 //! wakes only for a drive it would not fall silent from.
@@ -76,7 +77,7 @@ struct Link {
 
 #[derive(Clone, Copy, Debug)]
 struct Pair {
-    /// The two partials ([`Sympathy::ports`]) and their keys.
+    /// The two partials ([`Sympathy::slots`]) and their keys.
     a: u32,
     b: u32,
     key_a: u8,
@@ -101,14 +102,14 @@ struct Slot {
 pub(crate) struct Sympathy {
     /// How many pairs there are.
     count: usize,
-    /// For each key, a copy of every pair it is in, in the order of the other
-    /// key: a trade reads a key's pairs one after the other (looked up
-    /// through a list of indices, each pair was a miss of the cache, a fifth
-    /// of a pedalled render's time).
+    /// For each key, every pair it is in as it takes from the other key (a
+    /// [`Link`]), in the order of the other key: a trade reads a key's pairs
+    /// one after the other (looked up through a list of indices, each pair
+    /// was a miss of the cache, a fifth of a pedalled render's time).
     by_key: Vec<Vec<Link>>,
     /// For each key, its pairs grouped by the other key: (other, range in
-    /// `by_key[key]`), so that the pairs with a key that cannot ring are
-    /// passed over together.
+    /// `by_key[key]`), so that the pairs with a key that is not sounding (it
+    /// gives nothing) are passed over together.
     by_other: Vec<Vec<(u8, u32, u32)>>,
     slots: Vec<Slot>,
     sums: Vec<Complex64>,
@@ -302,8 +303,8 @@ impl Sympathy {
     /// once an interval, the work spread over its blocks, and each partial
     /// is moved once an interval. (Each pair traded both ways at once, a
     /// partial was moved by each of its partners' keys at their own blocks:
-    /// up to eight times an interval, and the pedalled nocturne rendered
-    /// about 1.5 times slower.) Allocates: no.
+    /// up to eight times an interval, and the pedalled nocturne rendered at
+    /// 8.6-11x real time against 14-16x.) Allocates: no.
     pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64, phase: usize) {
         self.block += 1;
         if level <= 0.0 || self.count == 0 {
@@ -359,7 +360,10 @@ impl Sympathy {
         // it was given, ringing on with it.
         for k in (0..128).filter(|&k| taking[k]) {
             let (from, to) = self.key_slots[k];
-            let Some(Some(key)) = keys.get_mut(k) else { continue };
+            let Some(Some(key)) = keys.get_mut(k) else {
+                self.takes[from as usize..to as usize].fill(Complex64::new(0.0, 0.0));
+                continue;
+            };
             let rings = key.rings_free(sustain);
             for i in from as usize..to as usize {
                 let take = std::mem::take(&mut self.takes[i]);

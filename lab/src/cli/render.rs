@@ -112,7 +112,8 @@ pub struct RenderArgs {
     )]
     pub mpe: Option<f64>,
     /// Render on one thread. By default a second core takes half of the keys and
-    /// of the body (when the machine has one); the samples are the same either way.
+    /// of the body (when the machine has one) while a trial now and then finds
+    /// that faster; the samples are the same either way.
     #[arg(long)]
     pub one_thread: bool,
     /// Print nothing on success (and show no progress bar).

@@ -1356,12 +1356,21 @@ impl Key {
     /// already among its losses, so each string's end is moved by the others'
     /// force alone: with its own share that makes the whole coupling Y times the
     /// square of the summed force, which only ever takes energy out.
+    ///
+    /// Each string takes the bridge's move with its next sample's step (one
+    /// pass over its modes instead of two), the last sample's at the end.
     fn render_coupled(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
+        const MOST: usize = 8;
         let y = self.bridge_coupling_s_kg;
+        // Each string's bridge move still to take.
+        let mut moved = [None::<f64>; MOST];
         for (t, o) in out.iter_mut().enumerate() {
             let (mut total, mut total_before) = (0.0, 0.0);
             for (i, s) in self.strings.iter_mut().enumerate() {
-                let tick = s.tick();
+                let tick = match moved.get_mut(i).and_then(Option::take) {
+                    Some(dv) => s.tick_moved(dv),
+                    None => s.tick(),
+                };
                 self.force_now_n[i] = tick.bridge_force_n;
                 total += tick.bridge_force_n;
                 total_before += self.bridge_force_n[i];
@@ -1372,9 +1381,18 @@ impl Key {
             *o += total;
             for (i, s) in self.strings.iter_mut().enumerate() {
                 let own_change = self.force_now_n[i] - self.bridge_force_n[i];
-                s.move_bridge(y * (total - total_before - own_change));
+                let dv = y * (total - total_before - own_change);
+                match moved.get_mut(i) {
+                    Some(due) => *due = Some(dv),
+                    None => s.move_bridge(dv),
+                }
             }
             std::mem::swap(&mut self.bridge_force_n, &mut self.force_now_n);
+        }
+        for (s, due) in self.strings.iter_mut().zip(moved) {
+            if let Some(dv) = due {
+                s.move_bridge(dv);
+            }
         }
         self.add_phantom(out);
     }

@@ -154,6 +154,26 @@ impl StruckString {
         self.bank.kick(&self.bridge_kick, dv_m_s);
     }
 
+    /// [`Self::move_bridge`] by `dv_m_s`, then [`Self::tick`], to the bit: a
+    /// string nothing plays takes the kick with its step, in one pass.
+    ///
+    /// Allocates: no.
+    pub fn tick_moved(&mut self, dv_m_s: f64) -> Tick {
+        let played = match &self.exciter {
+            Exciter::None => false,
+            Exciter::Hammer(rig) => rig.in_play(),
+            _ => true,
+        };
+        if played {
+            self.move_bridge(dv_m_s);
+            return self.tick();
+        }
+        Tick {
+            bridge_force_n: self.bank.process_free_kicked(&self.audio, &self.bridge_kick, dv_m_s),
+            ..Tick::default()
+        }
+    }
+
     /// Throw a hammer at the string as it is now, sub-stepped as finely as the
     /// string has tables for. Allocates only when the string has no hammer
     /// tables yet (a new strike point rebuilds them in place).

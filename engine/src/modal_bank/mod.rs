@@ -420,9 +420,7 @@ impl ModalBank {
     /// displacements (`table` from [`Self::kick_table`] for those gains). Allocates: no.
     pub fn kick(&mut self, table: &[f64], dv: f64) {
         self.run_all();
-        for (im, k) in self.im[..table.len()].iter_mut().zip(table) {
-            *im += k * dv;
-        }
+        add_scaled(&mut self.im, table, dv);
     }
 
     /// Add `input` times the drive's within-step response to the state: moves a
@@ -587,6 +585,17 @@ impl ModalBank {
                 *o += lane_sum(a);
             }
         }
+    }
+
+    /// [`Self::kick`] by `table` and `dv`, then [`Self::process_free`] over one
+    /// sample, in one pass: that sample's bridge force, to the bit.
+    pub fn process_free_kicked(&mut self, step: &StepTable, table: &[f64], dv: f64) -> f64 {
+        debug_assert_eq!(step.pole_re.len(), self.re.len());
+        self.run_all();
+        let n = self.running;
+        let (re, im) = (&mut self.re[..n], &mut self.im[..n]);
+        // (As `process_free` adds it to a zero.)
+        0.0 + free_sample_kicked(re, im, (table, dv), &step.pole_re[..n], &step.pole_im[..n])
     }
 
     /// Advance freely over `acc.len()` samples, adding each sample's bridge force
@@ -965,6 +974,15 @@ pub(crate) const REAL_CHAIN: usize = 6;
 // (What is left after the whole chains, up to five groups, runs by itself.)
 const _: () = assert!(REAL_CHAIN <= 6);
 
+/// `to[i] += by[i] * k` for as many as both have, each product rounded before
+/// its sum (a dulcimer's strings take their bridge's kick so every sample).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn add_scaled(to: &mut [f64], by: &[f64], k: f64) {
+    for (t, b) in to.iter_mut().zip(by) {
+        *t += b * k;
+    }
+}
+
 /// Advance `re`/`im` by their poles over `acc.len()` samples, adding each
 /// sample's bridge force to `acc` by lane.
 pub(crate) fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_im: &[f64], acc: &mut [[f64; LANES]]) {
@@ -975,6 +993,39 @@ pub(crate) fn free_block(re: &mut [f64], im: &mut [f64], pole_re: &[f64], pole_i
 /// same bits as adding to zeros: a sum of modes is never -0).
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 pub(crate) fn free_block_into(
+    re: &mut [f64],
+    im: &mut [f64],
+    pole_re: &[f64],
+    pole_im: &[f64],
+    acc: &mut [[f64; LANES]],
+    fresh: bool,
+) {
+    free_block_body(re, im, pole_re, pole_im, acc, fresh);
+}
+
+/// One sample of [`free_block`] after `im[i] += kick[i] * dv` (as
+/// [`add_scaled`]), in one call: that sample's [`lane_sum`]. (Summed here, in
+/// the registers the sample's lanes are in: read back from memory by the
+/// caller's code, its wide stores stalled the narrower loads.)
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn free_sample_kicked(
+    re: &mut [f64],
+    im: &mut [f64],
+    (kick, dv): (&[f64], f64),
+    pole_re: &[f64],
+    pole_im: &[f64],
+) -> f64 {
+    for (t, b) in im.iter_mut().zip(kick) {
+        *t += b * dv;
+    }
+    let mut acc = [[0.0; LANES]; 1];
+    free_block_body(re, im, pole_re, pole_im, &mut acc, false);
+    lane_sum(&acc[0])
+}
+
+/// What [`free_block_into`] runs, inlined into each of its callers' versions.
+#[inline(always)]
+fn free_block_body(
     re: &mut [f64],
     im: &mut [f64],
     pole_re: &[f64],
@@ -1189,6 +1240,33 @@ mod tests {
         }
         .build()
         .unwrap()
+    }
+
+    #[test]
+    fn a_kick_taken_with_the_step_is_the_kick_then_the_step_to_the_bit() {
+        // A treble string ringing (some modes culled), kicked and stepped a
+        // sample at a time both ways: the same forces and states, bit for bit.
+        let string = treble_string();
+        let step = StepTable::new(&string, 1.0 / 48_000.0);
+        let mut a = ModalBank::new(&string);
+        for i in 0..a.len() {
+            a.set_state(i, Complex64::new(1e-4 / (i + 1) as f64, -3e-5 * (i as f64).sin()));
+        }
+        a.cull(1e-9);
+        let mut b = ModalBank::new(&string);
+        b.copy_motion_from(&a);
+        b.running = a.running;
+        let gains: Vec<f64> = string.modes.iter().map(|m| -2.0 / (m.number as f64 * std::f64::consts::PI)).collect();
+        let table = a.kick_table(&gains);
+        for k in 0..200 {
+            let dv = 1e-3 * ((k as f64) * 0.37).sin();
+            a.kick(&table, dv);
+            let mut out = [0.0];
+            a.process_free(&step, &mut out);
+            let force = b.process_free_kicked(&step, &table, dv);
+            assert_eq!(out[0].to_bits(), force.to_bits(), "sample {k}");
+        }
+        assert!(a.re.iter().zip(&b.re).chain(a.im.iter().zip(&b.im)).all(|(x, y)| x.to_bits() == y.to_bits()));
     }
 
     #[test]

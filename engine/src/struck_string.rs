@@ -155,16 +155,12 @@ impl StruckString {
     }
 
     /// [`Self::move_bridge`] by `dv_m_s`, then [`Self::tick`], to the bit: a
-    /// string nothing plays takes the kick with its step, in one pass.
+    /// string no stroke is in play on (whose tick is a free step) takes the
+    /// kick with its step, in one pass.
     ///
     /// Allocates: no.
     pub fn tick_moved(&mut self, dv_m_s: f64) -> Tick {
-        let played = match &self.exciter {
-            Exciter::None => false,
-            Exciter::Hammer(rig) => rig.in_play(),
-            _ => true,
-        };
-        if played {
+        if self.exciter.in_play() {
             self.move_bridge(dv_m_s);
             return self.tick();
         }

@@ -589,6 +589,8 @@ impl ModalBank {
 
     /// [`Self::kick`] by `table` and `dv`, then [`Self::process_free`] over one
     /// sample, in one pass: that sample's bridge force, to the bit.
+    ///
+    /// Allocates: no. Realtime-safe.
     pub fn process_free_kicked(&mut self, step: &StepTable, table: &[f64], dv: f64) -> f64 {
         debug_assert_eq!(step.pole_re.len(), self.re.len());
         self.run_all();
@@ -975,7 +977,8 @@ pub(crate) const REAL_CHAIN: usize = 6;
 const _: () = assert!(REAL_CHAIN <= 6);
 
 /// `to[i] += by[i] * k` for as many as both have, each product rounded before
-/// its sum (a dulcimer's strings take their bridge's kick so every sample).
+/// its sum: [`ModalBank::kick`] (a dulcimer's string with a stroke in play
+/// takes its bridge's kick so every sample).
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn add_scaled(to: &mut [f64], by: &[f64], k: f64) {
     for (t, b) in to.iter_mut().zip(by) {
@@ -1253,9 +1256,7 @@ mod tests {
             a.set_state(i, Complex64::new(1e-4 / (i + 1) as f64, -3e-5 * (i as f64).sin()));
         }
         a.cull(1e-9);
-        let mut b = ModalBank::new(&string);
-        b.copy_motion_from(&a);
-        b.running = a.running;
+        let mut b = a.clone();
         let gains: Vec<f64> = string.modes.iter().map(|m| -2.0 / (m.number as f64 * std::f64::consts::PI)).collect();
         let table = a.kick_table(&gains);
         for k in 0..200 {

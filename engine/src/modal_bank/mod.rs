@@ -981,6 +981,12 @@ const _: () = assert!(REAL_CHAIN <= 6);
 /// takes its bridge's kick so every sample).
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn add_scaled(to: &mut [f64], by: &[f64], k: f64) {
+    add_scaled_body(to, by, k);
+}
+
+/// What [`add_scaled`] runs, inlined into each of its callers' versions.
+#[inline(always)]
+fn add_scaled_body(to: &mut [f64], by: &[f64], k: f64) {
     for (t, b) in to.iter_mut().zip(by) {
         *t += b * k;
     }
@@ -1018,9 +1024,7 @@ fn free_sample_kicked(
     pole_re: &[f64],
     pole_im: &[f64],
 ) -> f64 {
-    for (t, b) in im.iter_mut().zip(kick) {
-        *t += b * dv;
-    }
+    add_scaled_body(im, kick, dv);
     let mut acc = [[0.0; LANES]; 1];
     free_block_body(re, im, pole_re, pole_im, &mut acc, false);
     lane_sum(&acc[0])

@@ -199,6 +199,8 @@ pub(crate) struct Key {
     midi_key: u8,
     strings: Vec<StruckString>,
     notes: Vec<Note>,
+    /// How much of a hammer each string meets, over an even share (empty: even).
+    strike_shares: Vec<f64>,
     damper: Damper,
     /// How [`TRADE_BLOCKS`] control blocks of the unison's trading through the
     /// body move each partial: the share that differs from the strings' mean by
@@ -383,12 +385,15 @@ impl Key {
             _ => Vec::new(),
         };
         // Each hammer's strikes measured on the last string it reaches, with its
-        // share of the hammer (as `press` splits it).
+        // share of the hammer (as `press` splits it: the largest, if uneven).
+        let shares = &design.strike_shares;
         for note in &mut notes {
             if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last), Some(top_speed_m_s)) =
                 (note.exciter, note.struck.clone().last(), touch.top_speed_m_s())
             {
-                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg, law, top_speed_m_s, position)
+                let widest = note.struck.clone().filter_map(|i| shares.get(i)).fold(1.0f64, |m, &w| m.max(w));
+                let law = ContactLaw { stiffness: law.stiffness * widest, ..law };
+                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg * widest, law, top_speed_m_s, position)
                     .with_hysteresis(note.hysteresis);
                 note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
             }
@@ -425,6 +430,7 @@ impl Key {
             phantom_at: None,
             strings,
             notes,
+            strike_shares: design.strike_shares.clone(),
             damper: Damper::new(design.damper),
             unison,
             blocks_since_trade: 0,
@@ -899,14 +905,22 @@ impl Key {
                 // way: the hammer meets the first string of a unison with that
                 // much less of its width (missing it at full shift), and the
                 // rest with its less worn, softer felt. Each string takes the
-                // hammer's mass and felt in proportion to the width it meets.
+                // hammer's mass and felt in proportion to the width it meets,
+                // which an uneven hammer makes more on some strings than on
+                // others.
                 let shift = if strings.len() >= 2 { una_corda.clamp(0.0, 1.0) } else { 0.0 };
                 let (hardness, position) = (hardness * self.hammer_hardness, own_point(position));
                 let soft = 1.0 - una_corda.clamp(0.0, 1.0) * (1.0 - UNA_CORDA_STIFFNESS);
-                let width = strings.len() as f64 - shift;
+                let shares = self.strike_shares.get(played.struck.clone()).unwrap_or(&[]);
+                let share = |i: usize| shares.get(i).copied().unwrap_or(1.0);
+                let width = if shares.is_empty() {
+                    strings.len() as f64 - shift
+                } else {
+                    (0..strings.len()).map(|i| share(i) * if i == 0 { 1.0 - shift } else { 1.0 }).sum()
+                };
                 let substeps = played.substeps.as_ref().map_or(DEFAULT_SUBSTEPS, |plan| plan.substeps(touch));
                 for (i, s) in strings.iter_mut().enumerate() {
-                    let met = if i == 0 { 1.0 - shift } else { 1.0 };
+                    let met = share(i) * if i == 0 { 1.0 - shift } else { 1.0 };
                     if met < MISSED {
                         continue;
                     }

@@ -143,6 +143,7 @@ impl Preset {
         within("voicing.unison_detune", v.unison_detune, 0.0, 100.0, "")?;
         within("voicing.board_irregularity", v.board_irregularity, 0.0, 1.0, "")?;
         within("voicing.felt_hysteresis", v.felt_hysteresis, 0.0, 3.0, "")?;
+        within("voicing.hammer_unevenness", v.hammer_unevenness, 0.0, 1.0, "")?;
         let c = &self.controls;
         within("controls.touch_min", c.touch_min, 0.0, 1.0, "")?;
         within("controls.touch_max", c.touch_max, 0.0, 1.0, "")?;
@@ -448,6 +449,7 @@ mod tests {
         assert_eq!(p.tuning.stretch, 1.0, "a tuner's stretch");
         // Presets written before these settings existed play them as built.
         assert_eq!(p.voicing.felt_hysteresis, 1.0);
+        assert_eq!(p.voicing.hammer_unevenness, 0.0, "a level hammer");
         let c = p.controls;
         assert_eq!([c.sympathy, c.phantom, c.key_noise, c.damper_noise, c.pedal_noise], [1.0; 5]);
     }
@@ -459,7 +461,13 @@ mod tests {
         let preset = Preset {
             name: "Every field".into(),
             instrument: Some(InstrumentKind::Fortepiano),
-            voicing: Voicing { felt_hysteresis: 2.5, board_irregularity: 0.25, fretted: true, ..Voicing::default() },
+            voicing: Voicing {
+                felt_hysteresis: 2.5,
+                board_irregularity: 0.25,
+                fretted: true,
+                hammer_unevenness: 0.4,
+                ..Voicing::default()
+            },
             controls: Controls {
                 bebung_cents: 35.0,
                 velocity_floor: 0.1,
@@ -476,6 +484,7 @@ mod tests {
         let json = preset.to_json();
         for field in [
             "felt_hysteresis",
+            "hammer_unevenness",
             "sympathy",
             "phantom",
             "key_noise",

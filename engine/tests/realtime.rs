@@ -134,6 +134,7 @@ fn random_settings(rng: &mut Rng, fs: f64) -> InstrumentSettings {
         board_size: extreme(rng, 0.5, 2.0),
         board_irregularity: extreme(rng, 0.0, 1.0),
         felt_hysteresis: extreme(rng, 0.0, 3.0),
+        hammer_unevenness: extreme(rng, 0.0, 1.0),
     };
     // The historical temperaments (a Scala scale needs a file: the fuzzing tests cover those).
     let temperaments: Vec<Temperament> = Temperament::ALL.into_iter().filter(|t| *t != Temperament::Scala).collect();

@@ -181,6 +181,9 @@ pub struct HammerParams {
     /// The felt's hysteresis (Stulov), as built = 1; 0 is an elastic felt.
     #[id = "hhys"]
     pub hysteresis: FloatParam,
+    /// How unevenly the hammer meets a unison's strings: 0 level (as built).
+    #[id = "huev"]
+    pub unevenness: FloatParam,
 }
 
 #[derive(Params)]
@@ -394,6 +397,7 @@ impl Default for StruckParams {
                 exponent: scale_param("Felt exponent alpha", 0.5, 2.0),
                 position: scale_param("Strike position", 0.25, 4.0).with_poly_modulation_id(POLY_POSITION),
                 hysteresis: level_param("Felt hysteresis", 3.0),
+                unevenness: percent_param("Hammer unevenness", 0.0),
             },
             tangent: TangentParams {
                 depth: scale_param("Tangent depth", 0.5, 2.0),
@@ -478,6 +482,7 @@ impl StruckParams {
             board_size: self.output.board.value() as f64,
             board_irregularity: self.output.irregularity.value() as f64,
             felt_hysteresis: self.hammer.hysteresis.value() as f64,
+            hammer_unevenness: self.hammer.unevenness.value() as f64,
         }
     }
 
@@ -637,8 +642,9 @@ mod tests {
         let map = p.param_map();
         let ids: Vec<&str> = map.iter().map(|(id, _, _)| id.as_str()).collect();
         let expected =
-            ["inst", "tmin", "tmax", "tshp", "vflo", "vfhi", "hmass", "hstif", "hexp", "hpos", "hhys", "damp", "detn"]
+            ["inst", "tmin", "tmax", "tshp", "vflo", "vfhi", "hmass", "hstif", "hexp", "hpos", "hhys", "huev"]
                 .into_iter()
+                .chain(["damp", "detn"])
                 .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
                 .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
                 .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
@@ -648,6 +654,7 @@ mod tests {
         let group_of = |id: &str| groups[ids.iter().position(|i| *i == id).unwrap()];
         assert_eq!(group_of("inst"), "Instrument");
         assert_eq!(group_of("hhys"), "Hammer");
+        assert_eq!(group_of("huev"), "Hammer");
         assert_eq!(group_of("tdep"), "Tangent");
         assert_eq!(group_of("a4"), "Tuning");
         assert_eq!(group_of("poly"), "Output");

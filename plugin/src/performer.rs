@@ -884,6 +884,7 @@ mod tests {
                 w.voicing.hammer_mass = 0.25 + 3.75 * rng.unit();
                 w.voicing.damping = 0.25 + 3.75 * rng.unit();
                 w.voicing.unison_detune = 4.0 * rng.unit();
+                w.voicing.hammer_unevenness = rng.unit();
                 switches += 1;
             }
             if rng.below(20) == 0 {

@@ -577,6 +577,7 @@ fn refuses_bad_presets() {
         (r#"{"tuning": {"temperament": "scala"}}"#, "tuning.temperament"),
         (r#"{"voicing": {"tangent_depth": -1}}"#, "voicing.tangent_depth"),
         (r#"{"voicing": {"felt_hysteresis": 4}}"#, "voicing.felt_hysteresis"),
+        (r#"{"voicing": {"hammer_unevenness": 1.5}}"#, "voicing.hammer_unevenness"),
         (r#"{"controls": {"phantom": -1}}"#, "controls.phantom"),
         ("{", "JSON"),
     ] {

@@ -252,6 +252,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n),
         pan: pan(midi_key, KEYS),
         hammer_hysteresis: None,
+        strike_shares: Vec::new(),
     }
 }
 

@@ -297,6 +297,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         pan,
         // A bare wooden hammer: elastic, as the santoor's mallet.
         hammer_hysteresis: None,
+        strike_shares: Vec::new(),
     })
 }
 

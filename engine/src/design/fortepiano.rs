@@ -128,6 +128,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         pan: pan(midi_key, KEYS),
         // Leather's hysteresis is unmeasured too (as its law): taken as the felt's.
         hammer_hysteresis: Some(FELT_HYSTERESIS),
+        strike_shares: Vec::new(),
     }
 }
 

@@ -150,6 +150,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, peak_n),
         pan: pan(midi_key, KEYS),
         hammer_hysteresis: None,
+        strike_shares: Vec::new(),
     }
 }
 

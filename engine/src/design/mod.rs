@@ -226,6 +226,10 @@ pub struct Voicing {
     /// The felt's hysteresis (Stulov): a factor on the share of its force its
     /// memory takes back (0: elastic felt; held so the share stays under 0.9).
     pub felt_hysteresis: f64,
+    /// How unevenly a hammer or mallet meets the strings of a unison (0: level,
+    /// every string taking an equal share; 1: the most unevenly met string of
+    /// the course takes half again its share, or half of it). Held to 0..=1.
+    pub hammer_unevenness: f64,
 }
 
 impl Default for Voicing {
@@ -242,6 +246,7 @@ impl Default for Voicing {
             board_size: 1.0,
             board_irregularity: 0.5,
             felt_hysteresis: 1.0,
+            hammer_unevenness: 0.0,
         }
     }
 }
@@ -334,6 +339,9 @@ pub struct KeyDesign {
     /// The hysteresis of the felt (or head) of every hammer that plays these
     /// strings, the key's own and its shared keys' (None: elastic, or no hammer).
     pub hammer_hysteresis: Option<Hysteresis>,
+    /// How much of a hammer each string of the course meets, over an even
+    /// share (mean 1 over the strings a hammer reaches; empty: all even).
+    pub strike_shares: Vec<f64>,
 }
 
 /// The design of `midi_key` on `kind` with `voicing`, in equal temperament at
@@ -352,7 +360,9 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
         InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz)?,
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };
-    let mut key = KeyDesign { hammer_hysteresis: voiced_hysteresis(key.hammer_hysteresis, voicing), ..key };
+    let strike_shares = uneven_shares(&key, voicing);
+    let mut key =
+        KeyDesign { hammer_hysteresis: voiced_hysteresis(key.hammer_hysteresis, voicing), strike_shares, ..key };
     if let Some(h) = key.hammer_hysteresis {
         // The designs' felt laws are measured on strikes, which last far
         // longer than the felt's memory: they are the relaxed felt, (1 - eps)
@@ -366,6 +376,50 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
         key.shared.iter_mut().for_each(|s| fast(&mut s.exciter));
     }
     Some(key)
+}
+
+/// How unevenly each string of a course's unisons is met, at the voicing's
+/// `hammer_unevenness` of 1: a fixed pattern over the strings a hammer
+/// reaches (its mean 0, its widest +-0.5), as a hammer's crown filed or worn
+/// out of level meets one string first and hardest. Each key takes the
+/// pattern in its own order, as no two hammers wear alike (a course of more
+/// than four strings takes the four's last share on the rest).
+const UNEVEN: [&[f64]; 3] = [&[-0.5, 0.5], &[-0.5, 0.1, 0.4], &[-0.5, -0.1, 0.2, 0.4]];
+
+/// The strings' shares of a hammer ([`KeyDesign::strike_shares`]) for the
+/// voicing's `hammer_unevenness`: empty when level, or when no hammer plays
+/// a unison.
+fn uneven_shares(key: &KeyDesign, voicing: &Voicing) -> Vec<f64> {
+    let u = if voicing.hammer_unevenness.is_finite() { voicing.hammer_unevenness.clamp(0.0, 1.0) } else { 0.0 };
+    let hammered = matches!(key.exciter, ExciterDesign::Hammer { .. });
+    if u == 0.0 || !hammered || key.strings.len() < 2 {
+        return Vec::new();
+    }
+    // Each key's own order of the pattern, fixed by its number.
+    let mut rng = crate::rng::Rng::new(0x5eed_0000 + u64::from(key.midi_key));
+    let mut shares = vec![1.0; key.strings.len()];
+    let mut ranges = vec![key.struck.clone()];
+    ranges.extend(key.shared.iter().map(|s| s.struck.clone()));
+    for range in ranges {
+        let n = range.len();
+        if n < 2 {
+            continue;
+        }
+        let pattern = UNEVEN[(n - 2).min(UNEVEN.len() - 1)];
+        let mut order = [0usize; 8];
+        let order = &mut order[..n.min(8)];
+        order.iter_mut().enumerate().for_each(|(i, o)| *o = i);
+        for i in (1..order.len()).rev() {
+            order.swap(i, rng.below(i as u64 + 1) as usize);
+        }
+        for (i, s) in range.enumerate() {
+            let at = order.get(i).copied().unwrap_or(i).min(pattern.len() - 1);
+            if let Some(share) = shares.get_mut(s) {
+                *share = 1.0 + u * pattern[at];
+            }
+        }
+    }
+    shares
 }
 
 /// The most of its force a voiced felt's memory may take back (eps < 1).
@@ -389,4 +443,42 @@ pub fn clavichord_pitch_rise_cents(midi_key: u8, displacement_m: f64) -> f64 {
 /// Equal-tempered frequency of a MIDI key, A4 = 440 Hz.
 pub fn key_frequency_hz(midi_key: u8) -> f64 {
     440.0 * 2f64.powf((midi_key as f64 - 69.0) / 12.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shares(kind: InstrumentKind, key: u8, unevenness: f64) -> Vec<f64> {
+        let voicing = Voicing { hammer_unevenness: unevenness, ..Voicing::default() };
+        key_design(kind, &voicing, key, 20_000.0).unwrap().strike_shares
+    }
+
+    #[test]
+    fn an_uneven_hammer_shares_itself_unevenly_and_whole() {
+        // Level: no shares at all (the key strikes as it always has).
+        assert!(shares(InstrumentKind::Piano, 60, 0.0).is_empty());
+        // A plucked or tangented course, or a single string, has none to share.
+        assert!(shares(InstrumentKind::Harpsichord, 60, 1.0).is_empty());
+        assert!(shares(InstrumentKind::Clavichord, 60, 1.0).is_empty());
+        assert!(shares(InstrumentKind::Piano, 21, 1.0).is_empty(), "A0 has one string");
+        for (kind, key) in [(InstrumentKind::Piano, 60), (InstrumentKind::Santoor, 60), (InstrumentKind::Dulcimer, 73)]
+        {
+            for u in [0.3, 1.0] {
+                let s = shares(kind, key, u);
+                let d = key_design(kind, &Voicing::default(), key, 20_000.0).unwrap();
+                assert_eq!(s.len(), d.strings.len());
+                // Each hammer's strings: their mean share is even, the widest half again at 1.
+                for range in std::iter::once(d.struck.clone()).chain(d.shared.iter().map(|s| s.struck.clone())) {
+                    let part = &s[range];
+                    let mean = part.iter().sum::<f64>() / part.len() as f64;
+                    assert!((mean - 1.0).abs() < 1e-12, "{kind:?} {key} at {u}: {part:?}");
+                    let widest = part.iter().fold(0.0f64, |m, v| m.max((v - 1.0).abs()));
+                    assert!((widest - 0.5 * u).abs() < 1e-12, "{kind:?} {key} at {u}: {part:?}");
+                }
+            }
+        }
+        // Keys wear their hammers in their own order.
+        assert_ne!(shares(InstrumentKind::Piano, 60, 1.0), shares(InstrumentKind::Piano, 61, 1.0));
+    }
 }

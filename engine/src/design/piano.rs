@@ -137,6 +137,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, row.struck_peak_n(TOP_SPEED_M_S)),
         pan: pan(midi_key, KEYS),
         hammer_hysteresis: Some(FELT_HYSTERESIS),
+        strike_shares: Vec::new(),
     }
 }
 

@@ -125,6 +125,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         // Bare wooden mallets on steel: wood's loss per stroke is far below felt's
         // (the linear spring above is Woodhouse's elastic mallet), so none.
         hammer_hysteresis: None,
+        strike_shares: Vec::new(),
     }
 }
 

@@ -219,6 +219,7 @@ fn apply(preset: &Preset, params: &StruckParams, setter: &ParamSetter) {
     set(setter, &params.output.board, v.board_size as f32);
     set(setter, &params.output.irregularity, v.board_irregularity as f32);
     set(setter, &params.hammer.hysteresis, v.felt_hysteresis as f32);
+    set(setter, &params.hammer.unevenness, v.hammer_unevenness as f32);
     set(setter, &params.tangent.depth, v.tangent_depth as f32);
     set(setter, &params.tangent.fretted, v.fretted);
     let c = &preset.controls;
@@ -288,6 +289,7 @@ mod tests {
         let mut voiced = factory_presets().remove(0);
         voiced.name = "Piano, every setting moved".into();
         voiced.voicing.felt_hysteresis = 2.5;
+        voiced.voicing.hammer_unevenness = 0.6;
         voiced.voicing.board_irregularity = 0.8;
         voiced.controls.sympathy = 0.4;
         voiced.controls.phantom = 3.0;
@@ -312,6 +314,7 @@ mod tests {
             assert!(close(v.hammer_mass, w.hammer_mass) && close(v.damping, w.damping), "{what}: {v:?}");
             assert!(close(v.tangent_depth, w.tangent_depth) && v.fretted == w.fretted, "{what}: {v:?}");
             assert!(close(v.felt_hysteresis, w.felt_hysteresis), "{what}: {v:?}");
+            assert!(close(v.hammer_unevenness, w.hammer_unevenness), "{what}: {v:?}");
             assert!(close(v.board_irregularity, w.board_irregularity) && close(v.board_size, w.board_size), "{what}");
             let (c, d) = (&saved.controls, &preset.controls);
             assert!(close(c.bebung_cents, d.bebung_cents), "{what}");

@@ -221,6 +221,7 @@ fn parameter_groups(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter, ke
                 slider(ui, "Felt exponent α", &params.hammer.exponent, setter);
                 slider(ui, "Strike position", &params.hammer.position, setter);
                 slider(ui, "Felt hysteresis", &params.hammer.hysteresis, setter);
+                slider(ui, "Unevenness", &params.hammer.unevenness, setter);
             },
         ),
     }

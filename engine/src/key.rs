@@ -199,8 +199,13 @@ pub(crate) struct Key {
     midi_key: u8,
     strings: Vec<StruckString>,
     notes: Vec<Note>,
-    /// How much of a hammer each string meets, over an even share (empty: even).
+    /// How much of a hammer each string meets, over an even share (empty:
+    /// even), and whether they are held in the player's hand (they meet the
+    /// strings differently at each stroke: the shares turn by a string), with
+    /// the strokes so far.
     strike_shares: Vec<f64>,
+    hand_held: bool,
+    strokes: u32,
     damper: Damper,
     /// How [`TRADE_BLOCKS`] control blocks of the unison's trading through the
     /// body move each partial: the share that differs from the strings' mean by
@@ -385,17 +390,22 @@ impl Key {
             _ => Vec::new(),
         };
         // Each hammer's strikes measured on the last string it reaches, with its
-        // share of the hammer (as `press` splits it: the largest, if uneven).
+        // share of the hammer (as `press` splits it; an uneven hammer's
+        // narrowest and widest shares, the worse of the two at each speed).
         let shares = &design.strike_shares;
         for note in &mut notes {
             if let (ExciterDesign::Hammer { mass_kg, law, position }, Some(last), Some(top_speed_m_s)) =
                 (note.exciter, note.struck.clone().last(), touch.top_speed_m_s())
             {
-                let widest = note.struck.clone().filter_map(|i| shares.get(i)).fold(1.0f64, |m, &w| m.max(w));
-                let law = ContactLaw { stiffness: law.stiffness * widest, ..law };
-                let hammer = HammerSpec::one_of(note.struck.len(), mass_kg * widest, law, top_speed_m_s, position)
-                    .with_hysteresis(note.hysteresis);
-                note.substeps = Some(SubstepPlan::measure(&modes[last], sample_rate_hz, hammer));
+                let plan = |share: f64| {
+                    let law = ContactLaw { stiffness: law.stiffness * share, ..law };
+                    let hammer = HammerSpec::one_of(note.struck.len(), mass_kg * share, law, top_speed_m_s, position)
+                        .with_hysteresis(note.hysteresis);
+                    SubstepPlan::measure(&modes[last], sample_rate_hz, hammer)
+                };
+                let met: Vec<f64> = note.struck.clone().filter_map(|i| shares.get(i).copied()).collect();
+                let (narrowest, widest) = met.iter().fold((1.0f64, 1.0f64), |(n, w), &s| (n.min(s), w.max(s)));
+                note.substeps = Some(if met.is_empty() { plan(1.0) } else { plan(widest).worse_of(plan(narrowest)) });
             }
         }
         let mut strings = Vec::with_capacity(design.strings.len());
@@ -431,6 +441,8 @@ impl Key {
             strings,
             notes,
             strike_shares: design.strike_shares.clone(),
+            hand_held: hand_mallets,
+            strokes: 0,
             damper: Damper::new(design.damper),
             unison,
             blocks_since_trade: 0,
@@ -844,7 +856,7 @@ impl Key {
     /// Note `note` goes down with `touch` (a speed for hammers, mallets and
     /// tangents, a lift for a plectrum), with the mallet's hardness `hardness`
     /// times as built. A touch in the other unit than the note's exciter is
-    /// ignored.
+    /// ignored. Allocates: no.
     pub fn press(&mut self, note: usize, touch: Touch, una_corda: f64, hardness: f64, bend: f64) {
         self.settle();
         let Some(played) = self.notes.get(note) else { return };
@@ -912,7 +924,12 @@ impl Key {
                 let (hardness, position) = (hardness * self.hammer_hardness, own_point(position));
                 let soft = 1.0 - una_corda.clamp(0.0, 1.0) * (1.0 - UNA_CORDA_STIFFNESS);
                 let shares = self.strike_shares.get(played.struck.clone()).unwrap_or(&[]);
-                let share = |i: usize| shares.get(i).copied().unwrap_or(1.0);
+                let turn = if self.hand_held { self.strokes as usize } else { 0 };
+                self.strokes = self.strokes.wrapping_add(1);
+                let share = |i: usize| match shares.len() {
+                    0 => 1.0,
+                    n => shares[(i + turn) % n],
+                };
                 let width = if shares.is_empty() {
                     strings.len() as f64 - shift
                 } else {

@@ -95,7 +95,7 @@ fn a_held_note_is_clean_between_its_partials() {
     // sidebands at the trades' rate (47 Hz) about 50 dB under them. Between
     // C4's first three partials a held note (no pedal, so no other key
     // answers there) must stay that clean: 45 dB under the note over 1-3 s.
-    // Without the trade these bands lie 70 and 81 dB under it; with a trade
+    // Without the trade these bands lie 81 and 70 dB under it; with a trade
     // every 64 blocks the second comes to -42 dB (-47 dB now).
     let mut s = synth(InstrumentKind::Piano, Controls::default());
     let x = play(&mut s, &[(0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 })], 3.0);

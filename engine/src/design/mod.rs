@@ -383,8 +383,11 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
 /// reaches (its mean 0, its widest +-0.5), as a hammer's crown filed or worn
 /// out of level meets one string first and hardest. Each key takes the
 /// pattern in its own order, as no two hammers wear alike (a course of more
-/// than four strings takes the four's last share on the rest).
+/// than four strings takes the four's last share on the rest); a mallet held
+/// in the player's hand turns it by a string at each stroke (`Key::press`).
 const UNEVEN: [&[f64]; 3] = [&[-0.5, 0.5], &[-0.5, 0.1, 0.4], &[-0.5, -0.1, 0.2, 0.4]];
+/// Where the keys' orders of [`UNEVEN`] start (any fixed number would do).
+const UNEVEN_SEED: u64 = 0x5eed_0000;
 
 /// The strings' shares of a hammer ([`KeyDesign::strike_shares`]) for the
 /// voicing's `hammer_unevenness`: empty when level, or when no hammer plays
@@ -396,7 +399,7 @@ fn uneven_shares(key: &KeyDesign, voicing: &Voicing) -> Vec<f64> {
         return Vec::new();
     }
     // Each key's own order of the pattern, fixed by its number.
-    let mut rng = crate::rng::Rng::new(0x5eed_0000 + u64::from(key.midi_key));
+    let mut rng = crate::rng::Rng::new(UNEVEN_SEED + u64::from(key.midi_key));
     let mut shares = vec![1.0; key.strings.len()];
     let mut ranges = vec![key.struck.clone()];
     ranges.extend(key.shared.iter().map(|s| s.struck.clone()));

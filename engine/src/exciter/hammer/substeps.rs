@@ -66,6 +66,16 @@ impl SubstepPlan {
         Self { points }
     }
 
+    /// The plan for the worse of two strikes (each speed's larger error):
+    /// for a hammer that meets some strings harder than others.
+    pub fn worse_of(self, other: Self) -> Self {
+        let mut points = self.points;
+        for (p, q) in points.iter_mut().zip(other.points) {
+            p.1 = p.1.max(q.1);
+        }
+        Self { points }
+    }
+
     /// The error of a strike at `speed_m_s` with 2 sub-steps (e_2).
     pub fn error_at_two(&self, speed_m_s: f64) -> f64 {
         let x = speed_m_s.max(f64::MIN_POSITIVE).ln();

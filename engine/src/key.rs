@@ -930,6 +930,7 @@ impl Key {
                     0 => 1.0,
                     n => shares[(i + turn) % n],
                 };
+                // (A level hammer's width as it always was, to the bit.)
                 let width = if shares.is_empty() {
                     strings.len() as f64 - shift
                 } else {

@@ -385,6 +385,8 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
 /// pattern in its own order, as no two hammers wear alike (a course of more
 /// than four strings takes the four's last share on the rest); a mallet held
 /// in the player's hand turns it by a string at each stroke (`Key::press`).
+/// The pattern and its size are our assumption: no measurement of how level
+/// hammers are voiced was at hand (a fraction of an even share, unitless).
 const UNEVEN: [&[f64]; 3] = [&[-0.5, 0.5], &[-0.5, 0.1, 0.4], &[-0.5, -0.1, 0.2, 0.4]];
 /// Where the keys' orders of [`UNEVEN`] start (any fixed number would do).
 const UNEVEN_SEED: u64 = 0x5eed_0000;
@@ -409,16 +411,14 @@ fn uneven_shares(key: &KeyDesign, voicing: &Voicing) -> Vec<f64> {
             continue;
         }
         let pattern = UNEVEN[(n - 2).min(UNEVEN.len() - 1)];
-        let mut order = [0usize; 8];
-        let order = &mut order[..n.min(8)];
-        order.iter_mut().enumerate().for_each(|(i, o)| *o = i);
-        for i in (1..order.len()).rev() {
+        // The pattern's places, shuffled (Fisher-Yates).
+        let mut order: Vec<usize> = (0..n).collect();
+        for i in (1..n).rev() {
             order.swap(i, rng.below(i as u64 + 1) as usize);
         }
-        for (i, s) in range.enumerate() {
-            let at = order.get(i).copied().unwrap_or(i).min(pattern.len() - 1);
+        for (s, at) in range.zip(order) {
             if let Some(share) = shares.get_mut(s) {
-                *share = 1.0 + u * pattern[at];
+                *share = 1.0 + u * pattern[at.min(pattern.len() - 1)];
             }
         }
     }

@@ -1,13 +1,16 @@
 //! The modal bank's hot loops: free modes in banks of 1k, 16k and 64k (the
 //! whole-keyboard scale), a piano bass string while its hammer is on it
 //! (8 sub-steps per sample, each with the implicit contact solve), and the
-//! contact solve alone.
+//! contact solve alone, and each instrument's body driven at two of its zones.
 //!
-//! Throughput is in mode-samples (free), mode-steps (contact) or solves per second.
+//! Throughput is in mode-samples (free, body), mode-steps (contact) or solves per second.
 
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use struck_engine::CONTROL_BLOCK;
+use struck_engine::body::boards::{MAX_ZONES, design};
+use struck_engine::body::soundboard::{MicPlacement, Soundboard};
 use struck_engine::exciter::hammer::contact::{ContactLaw, Felt, Guess, LastPower};
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
 use struck_lab::perf::{contact_string, synthetic_bank};
@@ -117,6 +120,35 @@ fn contact_solve(c: &mut Criterion) {
     group.finish();
 }
 
+fn bodies(c: &mut Criterion) {
+    let mut group = c.benchmark_group("body, block of 64 at 48 kHz, two zones pushed on");
+    for kind in struck_engine::design::InstrumentKind::ALL {
+        let board = design(kind);
+        let zones = board.zone_points();
+        let mut body = Soundboard::build(&board, 48_000.0, &zones, MicPlacement::default().positions(&board), 1.0);
+        // A noise-like push at the first two zones (or the one a board has).
+        let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+        let mut x = 0x2545_f491_4f6c_dd1d_u64;
+        for row in forces.iter_mut().take(2.min(zones.len())) {
+            for f in row.iter_mut() {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                *f = (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            }
+        }
+        let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+        group.throughput(Throughput::Elements((body.mode_count() * CONTROL_BLOCK) as u64));
+        group.bench_function(format!("{}, {} modes", kind.name(), body.mode_count()), |b| {
+            b.iter(|| {
+                body.process(&forces, &mut left, &mut right, None);
+                std::hint::black_box((&left, &right));
+            })
+        });
+    }
+    group.finish();
+}
+
 fn instruments(c: &mut Criterion) {
     let mut group = c.benchmark_group("instrument, chords every 0.2 s with the pedal down");
     group.sample_size(10);
@@ -128,5 +160,5 @@ fn instruments(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, free_modes, in_contact, contact_solve, instruments);
+criterion_group!(benches, free_modes, in_contact, contact_solve, bodies, instruments);
 criterion_main!(benches);

@@ -422,10 +422,12 @@ impl Soundboard {
         n: usize,
         helper: Option<&mut Helper>,
     ) {
-        // The active zones' forces side by side, for the kernel.
-        let mut pushes = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+        // The active zones' forces side by side, in single precision, for the kernel.
+        let mut pushes = [[0.0f32; CONTROL_BLOCK]; MAX_ZONES];
         for (push, &z) in pushes.iter_mut().zip(active) {
-            push[..n].copy_from_slice(&forces[z][..n]);
+            for (p, &f) in push[..n].iter_mut().zip(&forces[z][..n]) {
+                *p = f as f32;
+            }
         }
         let h = self.half;
         let [[lr, li], [rr, ri]] = &self.out;
@@ -651,7 +653,7 @@ const _: () = assert!(CONTROL_BLOCK.is_power_of_two());
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn run_block(
     mut modes: Modes,
-    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
     acc_l: &mut [Lanes],
     acc_r: &mut [Lanes],
@@ -674,7 +676,7 @@ fn run_block(
 #[inline(always)]
 fn run_groups<const Z: usize>(
     modes: &mut Modes,
-    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
     acc_l: &mut [Lanes],
     acc_r: &mut [Lanes],
@@ -696,7 +698,7 @@ fn run_groups<const Z: usize>(
 fn run_chain<const G: usize, const Z: usize>(
     modes: &mut Modes,
     first: usize,
-    pushes: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+    pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
     acc_l: &mut [Lanes],
     acc_r: &mut [Lanes],
@@ -719,7 +721,7 @@ fn run_chain<const G: usize, const Z: usize>(
     for (t, (al, ar)) in acc_l.iter_mut().zip(acc_r.iter_mut()).enumerate() {
         let mut f = [0.0; Z];
         for (f, push) in f.iter_mut().zip(pushes) {
-            *f = push[t & (CONTROL_BLOCK - 1)] as f32;
+            *f = push[t & (CONTROL_BLOCK - 1)];
         }
         let (mut sum_l, mut sum_r) = ([0.0; LANES], [0.0; LANES]);
         for c in 0..G {

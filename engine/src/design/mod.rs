@@ -382,8 +382,9 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
 /// `hammer_unevenness` of 1: a fixed pattern over the strings a hammer
 /// reaches (its mean 0, its widest +-0.5), as a hammer's crown filed or worn
 /// out of level meets one string first and hardest. Each key takes the
-/// pattern in its own order, as no two hammers wear alike (a course of more
-/// than four strings takes the four's last share on the rest); a mallet held
+/// pattern in its own order, as no two hammers wear alike (no instrument has
+/// more than four strings under one hammer; a longer course would take the
+/// four's pattern and even shares on the rest, its mean still even); a mallet held
 /// in the player's hand turns it by a string at each stroke (`Key::press`).
 /// The pattern and its size are our assumption: no measurement of how level
 /// hammers are voiced was at hand (a fraction of an even share, unitless).
@@ -418,7 +419,7 @@ fn uneven_shares(key: &KeyDesign, voicing: &Voicing) -> Vec<f64> {
         }
         for (s, at) in range.zip(order) {
             if let Some(share) = shares.get_mut(s) {
-                *share = 1.0 + u * pattern[at.min(pattern.len() - 1)];
+                *share = 1.0 + u * pattern.get(at).copied().unwrap_or(0.0);
             }
         }
     }

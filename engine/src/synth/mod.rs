@@ -220,9 +220,12 @@ pub struct Instrument {
     touch: TouchRange,
     /// What its keys drive, the body those forces set ringing, and what the
     /// body's microphones heard last.
-    bridge: Bridge,
+    bridge: Box<Bridge>,
     soundboard: Soundboard,
     heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
+    /// The stretch before's bridge, while a shared render runs its body
+    /// beside this stretch's keys ([`Synth::stretch_beside`]).
+    bridge_before: Box<Bridge>,
     /// Each key's force over a stretch, by its index, and whether it sounded
     /// (while sharing).
     forces: Vec<[f64; CONTROL_BLOCK]>,
@@ -337,7 +340,8 @@ impl Instrument {
             keys,
             route,
             touch: settings.kind.touch_range(),
-            bridge: Bridge::default(),
+            bridge: Box::default(),
+            bridge_before: Box::default(),
             soundboard,
             forces: vec![[0.0; CONTROL_BLOCK]; key_count],
             sounded: vec![false; key_count],
@@ -364,13 +368,8 @@ impl Instrument {
             }
             Output::Microphones => {
                 let n = self.bridge.len();
-                let [heard_l, heard_r] = &mut *self.heard;
-                if self.bridge.is_split() {
-                    let (l, r) = (self.bridge.zone_forces(), self.bridge.zone_forces_right());
-                    self.soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
-                } else {
-                    self.soundboard.process(self.bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
-                }
+                run_body(&mut self.soundboard, &self.bridge, &mut self.heard, helper);
+                let [heard_l, heard_r] = &*self.heard;
                 left.iter_mut().zip(&heard_l[..n]).for_each(|(o, v)| *o += v);
                 right.iter_mut().zip(&heard_r[..n]).for_each(|(o, v)| *o += v);
             }
@@ -431,6 +430,13 @@ impl Instrument {
                 key.drive(&mut self.bridge, &force[..n]);
             }
         }
+        self.even_out(low_s, high_s);
+    }
+
+    /// Move the cut between the keys' halves toward where they would have
+    /// taken as long as each other, the lower half's work having taken
+    /// `low_s` and the upper's `high_s`.
+    fn even_out(&mut self, low_s: f64, high_s: f64) {
         if low_s > 0.0 && high_s > 0.0 {
             // The share below that would have taken as long as the share
             // above, had each key's work cost what it did, approached gently.
@@ -459,6 +465,42 @@ impl Instrument {
         let (home, note) = (*self.route.get(midi_key as usize)?)?;
         Some((self.keys[home as usize].as_mut()?, note as usize))
     }
+}
+
+/// Report the keys fallen silent in a control block at `time` (the lower
+/// half's first), as room allows.
+fn push_ended(ended: &mut Vec<KeyEnded>, time: u32, halves: [&Fallen; 2]) {
+    for &key in halves.into_iter().flat_map(Fallen::keys) {
+        if ended.len() < ended.capacity() {
+            ended.push(KeyEnded { time, key });
+        }
+    }
+}
+
+/// What `soundboard`'s microphones hear of `bridge`'s stretch, into `heard`
+/// (the second half of its modes on `helper`, if given one).
+fn run_body(
+    soundboard: &mut Soundboard,
+    bridge: &Bridge,
+    heard: &mut [[f64; CONTROL_BLOCK]; 2],
+    helper: Option<&mut Helper>,
+) {
+    let n = bridge.len();
+    let [heard_l, heard_r] = heard;
+    if bridge.is_split() {
+        let (l, r) = (bridge.zone_forces(), bridge.zone_forces_right());
+        soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
+    } else {
+        soundboard.process(bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
+    }
+}
+
+/// A stretch of samples whose body has not run yet: where it starts in the
+/// block being processed, and how long it is.
+#[derive(Clone, Copy, Debug)]
+struct Stretch {
+    pos: usize,
+    len: usize,
 }
 
 /// Each of `keys` that is sounding's force over `n` samples, into its row of
@@ -634,8 +676,9 @@ pub struct Synth {
     mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
-    /// The thread that runs the second halves of the keys and of the body,
-    /// offline (see [`crate::share`]).
+    /// The thread that runs the second halves of the keys and of the body
+    /// (or the upper keys after the body over the stretch before), offline
+    /// (see [`crate::share`]).
     helper: Option<Helper>,
 }
 
@@ -855,28 +898,40 @@ impl Synth {
         let (mut work, mut blocks) = (0, 0);
         let mut pos = 0;
         let mut next_event = 0;
+        // While sharing, the stretch whose body runs beside the next one's keys.
+        let mut before = None;
         while pos < n {
+            if next_event < events.len() && (events[next_event].time as usize) <= pos {
+                // (An event may change what the body's samples go through.)
+                self.finish_before(before.take(), left, right);
+            }
             while next_event < events.len() && (events[next_event].time as usize) <= pos {
                 self.handle(events[next_event].event);
                 next_event += 1;
             }
             let phase = (self.clock % CONTROL_BLOCK as u64) as usize;
-            if phase == 0 {
-                self.control(pos as u32);
-                if started.is_some() {
-                    work += self.current.work + self.outgoing.as_ref().map_or(0, |o| o.work);
-                    blocks += 1;
-                }
-            }
             let until_event = events.get(next_event).map_or(n, |e| (e.time as usize).min(n));
             // While a strike is being recorded for the live view, finer chunks let it
             // catch the moment of peak contact (chunking never changes the samples).
             let chunk = if self.scope.recording() { SCOPE_CHUNK } else { CONTROL_BLOCK };
             let len = (n - pos).min(CONTROL_BLOCK - phase).min(chunk).min(until_event - pos);
-            self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
+            if self.runs_beside() {
+                before = Some(self.stretch_beside((pos, len), (phase == 0, pos as u32), before, left, right));
+            } else {
+                self.finish_before(before.take(), left, right);
+                if phase == 0 {
+                    self.control(pos as u32);
+                }
+                self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
+            }
+            if phase == 0 && started.is_some() {
+                work += self.current.work + self.outgoing.as_ref().map_or(0, |o| o.work);
+                blocks += 1;
+            }
             pos += len;
             self.clock += len as u64;
         }
+        self.finish_before(before.take(), left, right);
         // Events stamped past the block's end still happen, at its end.
         for e in &events[next_event..] {
             self.handle(e.event);
@@ -1055,9 +1110,51 @@ impl Synth {
     }
 
     fn control(&mut self, time: u32) {
-        let block_s = CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz;
-        let (sustain, bend, bebung) = (self.sustain, self.bend, self.controls.bebung_cents);
-        let (phantom, noise) = (self.controls.phantom.clamp(0.0, 4.0), self.controls.noise());
+        self.control_before_keys();
+        let tick = self.key_tick();
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            // Each half of the keys where it sounds (its strings' state stays
+            // in its core's cache), the keys that fell silent in order.
+            let half = instrument.half.min(instrument.keys.len());
+            let (low, high) = instrument.keys.split_at_mut(half);
+            let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
+            crate::share::both(
+                self.helper.as_mut(),
+                || tick.control(low, &mut low_ended),
+                || tick.control(high, &mut high_ended),
+            );
+            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
+            if self.helper.is_some() {
+                instrument.balance();
+            }
+        }
+        // The outgoing instrument leaves once its keys are silent and its body has rung out.
+        if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none() && o.soundboard.is_resting()) {
+            self.retire(old);
+        }
+        if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_mut()) {
+            // (The live view reads the string: back from its gathering.)
+            key.settle();
+            self.scope.control(key.midi_key(), key.watched_string());
+        }
+    }
+
+    /// What every sounding key is told at a control block.
+    fn key_tick(&self) -> KeyTick {
+        KeyTick {
+            block_s: CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz,
+            sustain: self.sustain,
+            bend: self.bend,
+            bebung: self.controls.bebung_cents,
+            phantom: self.controls.phantom.clamp(0.0, 4.0),
+            noise: self.controls.noise(),
+        }
+    }
+
+    /// A control block's work before its keys are told: the dampers the
+    /// pedal is lifting, the strings' trading through the body.
+    fn control_before_keys(&mut self) {
+        let (sustain, bend, noise) = (self.sustain, self.bend, self.controls.noise());
         if let Some(phase) = self.lifting {
             for (k, key) in self.current.keys.iter_mut().enumerate() {
                 if let Some(key) = key.as_mut().filter(|_| k * 5 % LIFT_SPREAD_BLOCKS == phase) {
@@ -1074,36 +1171,120 @@ impl Synth {
             let current = &mut *self.current;
             current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE, phase);
         }
-        let tick = KeyTick { block_s, sustain, bend, bebung, phantom, noise };
-        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            // Each half of the keys where it sounds (its strings' state stays
-            // in its core's cache), the keys that fell silent in order.
-            let half = instrument.half.min(instrument.keys.len());
-            let (low, high) = instrument.keys.split_at_mut(half);
-            let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
-            crate::share::both(
-                self.helper.as_mut(),
-                || tick.control(low, &mut low_ended),
-                || tick.control(high, &mut high_ended),
-            );
-            for &key in low_ended.keys().iter().chain(high_ended.keys()) {
-                if self.ended.len() < self.ended.capacity() {
-                    self.ended.push(KeyEnded { time, key });
+    }
+
+    /// Whether the next stretch may run beside the body of the one before
+    /// ([`Self::stretch_beside`]): shared with a helper, one instrument
+    /// heard through its body, no key watched by the live view.
+    fn runs_beside(&self) -> bool {
+        self.helper.is_some()
+            && self.outgoing.is_none()
+            && self.controls.output == Output::Microphones
+            && self.scope.key().is_none()
+    }
+
+    /// A stretch of `len` samples at `pos` shared with the helper, its keys'
+    /// control block first if one begins here (`control`, at `time`): the
+    /// keys cut in halves, the helper's half after the body's run over the
+    /// stretch `before` (whose samples are then written to `left` and
+    /// `right`). The body is a sink: nothing the keys do waits on it, so the
+    /// whole stretch is one piece of shared work, not three (the keys'
+    /// control, their sound, the body's halves), and the cores wait on each
+    /// other once a stretch instead of two to four times (but for the body
+    /// over the last stretch before an event, or a host block's end, which
+    /// runs alone). Every key and the body take the same steps, in the same
+    /// order, as on one thread. Returns the stretch, whose body is still to
+    /// run.
+    fn stretch_beside<T: OutputSample>(
+        &mut self,
+        (pos, len): (usize, usize),
+        (control, time): (bool, u32),
+        before: Option<Stretch>,
+        left: &mut [T],
+        right: &mut [T],
+    ) -> Stretch {
+        if control {
+            self.control_before_keys();
+        }
+        let tick = self.key_tick();
+        let instrument = &mut *self.current;
+        std::mem::swap(&mut instrument.bridge, &mut instrument.bridge_before);
+        let half = instrument.half.min(instrument.keys.len());
+        let Instrument { keys, forces, sounded, soundboard, bridge_before, heard, .. } = instrument;
+        let (low, high) = keys.split_at_mut(half);
+        let (forces_low, forces_high) = forces.split_at_mut(half);
+        let (sounded_low, sounded_high) = sounded.split_at_mut(half);
+        let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
+        let (mut low_s, mut high_s) = (0.0, 0.0);
+        crate::share::both(
+            self.helper.as_mut(),
+            || {
+                let start = std::time::Instant::now();
+                if control {
+                    tick.control(low, &mut low_ended);
                 }
+                sound_keys(low, (forces_low, sounded_low), len, None);
+                low_s = start.elapsed().as_secs_f64();
+            },
+            || {
+                let start = std::time::Instant::now();
+                if before.is_some() {
+                    run_body(soundboard, bridge_before, heard, None);
+                }
+                if control {
+                    tick.control(high, &mut high_ended);
+                }
+                sound_keys(high, (forces_high, sounded_high), len, None);
+                high_s = start.elapsed().as_secs_f64();
+            },
+        );
+        if control {
+            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
+            instrument.balance();
+        }
+        if before.is_some() {
+            // (The cut is weighed only where the helper's half had the body in it.)
+            instrument.even_out(low_s, high_s);
+        }
+        // The bridge as `Self::render` starts it (which keys are placed is
+        // known once they are told).
+        let split = instrument.soundboard.is_split()
+            || instrument.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed());
+        instrument.bridge.start(len, false, split);
+        for ((key, force), _) in
+            instrument.keys.iter_mut().zip(&instrument.forces).zip(&instrument.sounded).filter(|(_, s)| **s)
+        {
+            if let Some(key) = key.as_mut() {
+                key.drive(&mut instrument.bridge, &force[..len]);
             }
-            if self.helper.is_some() {
-                instrument.balance();
-            }
         }
-        // The outgoing instrument leaves once its keys are silent and its body has rung out.
-        if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none() && o.soundboard.is_resting()) {
-            self.retire(old);
+        if let Some(b) = before {
+            self.emit_before(b, left, right);
         }
-        if let Some(key) = self.scope.key().and_then(|k| self.current.keys[k as usize].as_mut()) {
-            // (The live view reads the string: back from its gathering.)
-            key.settle();
-            self.scope.control(key.midi_key(), key.watched_string());
-        }
+        Stretch { pos, len }
+    }
+
+    /// The body's run over the stretch `before`, the last the keys sounded
+    /// (its halves shared as [`Self::render`] shares them), and its samples
+    /// written to `left` and `right`.
+    fn finish_before<T: OutputSample>(&mut self, before: Option<Stretch>, left: &mut [T], right: &mut [T]) {
+        let Some(b) = before else { return };
+        let instrument = &mut *self.current;
+        run_body(&mut instrument.soundboard, &instrument.bridge, &mut instrument.heard, self.helper.as_mut());
+        self.emit_before(b, left, right);
+    }
+
+    /// Write the stretch `before`'s samples (its body heard) as
+    /// [`Self::render`] writes a stretch's.
+    fn emit_before<T: OutputSample>(&mut self, before: Stretch, left: &mut [T], right: &mut [T]) {
+        let Stretch { pos, len } = before;
+        let [mix_l, mix_r] = &mut *self.mix;
+        mix_l[..len].fill(0.0);
+        mix_r[..len].fill(0.0);
+        let [heard_l, heard_r] = &*self.current.heard;
+        mix_l[..len].iter_mut().zip(&heard_l[..len]).for_each(|(o, v)| *o += v);
+        mix_r[..len].iter_mut().zip(&heard_r[..len]).for_each(|(o, v)| *o += v);
+        self.write_out(&mut left[pos..pos + len], &mut right[pos..pos + len]);
     }
 
     fn render<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
@@ -1123,6 +1304,14 @@ impl Synth {
             instrument.sound(n, self.helper.as_mut(), watch);
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n], self.helper.as_mut());
         }
+        self.write_out(left, right);
+    }
+
+    /// The mix's first `left.len()` samples through the DC block and the
+    /// output gain, to `left` and `right` (and the live view).
+    fn write_out<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
+        let n = left.len();
+        let [mix_l, mix_r] = &*self.mix;
         let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
         let mut heard = [0.0f32; CONTROL_BLOCK];
         for t in 0..n {

@@ -37,6 +37,7 @@ use crate::string::Tuning;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
+use std::sync::atomic::{AtomicBool, Ordering};
 use sympathy::Sympathy;
 
 pub use crate::CONTROL_BLOCK;
@@ -492,6 +493,116 @@ fn run_body(
         soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
     } else {
         soundboard.process(bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
+    }
+}
+
+/// A control block's work before its keys are told ([`Synth::control`]).
+#[derive(Clone, Copy)]
+struct BeforeKeys {
+    sustain: f64,
+    bend: f64,
+    noise: ActionNoise,
+    /// The sympathetic strings' level.
+    sympathy: f64,
+    /// The control block's number.
+    block: u64,
+}
+
+impl BeforeKeys {
+    /// The dampers the pedal is lifting (`lifting`, moved on), and the
+    /// strings' trading through the body.
+    fn run(self, keys: &mut [Option<Key>], sympathy: &mut Sympathy, lifting: &mut Option<usize>) {
+        let Self { sustain, bend, noise, .. } = self;
+        if let Some(phase) = *lifting {
+            for (k, key) in keys.iter_mut().enumerate() {
+                if let Some(key) = key.as_mut().filter(|_| k * 5 % LIFT_SPREAD_BLOCKS == phase) {
+                    key.set_noise(noise);
+                    key.lift_damper(sustain, bend);
+                }
+            }
+            *lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
+        }
+        // Each key's pairs trade once every SYMPATHY_BLOCKS blocks, an
+        // eighth of the keys each block.
+        let phase = (self.block % SYMPATHY_BLOCKS as u64) as usize;
+        sympathy.trade(keys, self.sympathy, sustain, bend, SILENCE, phase);
+    }
+}
+
+/// The keys of one instrument, for [`Synth::stretch_beside`]: the calling
+/// thread trades among all of them while the helper runs the body, then each
+/// thread takes its half.
+struct SharedKeys {
+    start: *mut Option<Key>,
+    len: usize,
+    /// Set once the calling thread is done with every key (or unwinds).
+    released: AtomicBool,
+}
+
+// SAFETY: the keys are `Send` (a helper already sounds half of them); the
+// pointer is only turned into slices as `SharedKeys`'s methods allow, which
+// keep the two threads off each other's keys (see `all`).
+unsafe impl Sync for SharedKeys {}
+
+const _: () = {
+    // What `SharedKeys` hands to the helper must be able to go there.
+    const fn sendable<T: Send>() {}
+    sendable::<Option<Key>>();
+};
+
+impl SharedKeys {
+    fn new(keys: &mut [Option<Key>]) -> Self {
+        Self { start: keys.as_mut_ptr(), len: keys.len(), released: AtomicBool::new(false) }
+    }
+
+    /// Every key.
+    ///
+    /// # Safety
+    ///
+    /// Only on the calling thread, before [`Self::release`], and no other
+    /// slice of these keys alive meanwhile.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn all(&self) -> &mut [Option<Key>] {
+        // SAFETY: the caller's contract; `start..start + len` is one live slice.
+        unsafe { std::slice::from_raw_parts_mut(self.start, self.len) }
+    }
+
+    /// Let the other thread take its half.
+    fn release(&self) {
+        self.released.store(true, Ordering::Release);
+    }
+
+    /// The keys below `half` (the calling thread's, once it has let go of
+    /// [`Self::all`]) or from `half` on (the helper's, once released).
+    ///
+    /// # Safety
+    ///
+    /// Each half taken by one thread only; the upper half only after
+    /// [`Self::wait`] returned; the lower only after the slice from
+    /// [`Self::all`] is dead.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn half(&self, half: usize, upper: bool) -> &mut [Option<Key>] {
+        let half = half.min(self.len);
+        let (from, len) = if upper { (half, self.len - half) } else { (0, half) };
+        // SAFETY: within the slice `new` took; the halves do not overlap.
+        unsafe { std::slice::from_raw_parts_mut(self.start.add(from), len) }
+    }
+
+    /// Wait until the calling thread has released the keys (spinning on
+    /// reads, as the helper waits for its work: see [`crate::share`]).
+    #[allow(clippy::missing_spin_loop)]
+    fn wait(&self) {
+        while !self.released.load(Ordering::Acquire) {}
+    }
+}
+
+/// Releases the keys when dropped, so a panic on the calling thread cannot
+/// leave the helper waiting.
+struct Release<'a>(&'a SharedKeys);
+
+impl Drop for Release<'_> {
+    fn drop(&mut self) {
+        self.0.release();
     }
 }
 
@@ -1154,22 +1265,19 @@ impl Synth {
     /// A control block's work before its keys are told: the dampers the
     /// pedal is lifting, the strings' trading through the body.
     fn control_before_keys(&mut self) {
-        let (sustain, bend, noise) = (self.sustain, self.bend, self.controls.noise());
-        if let Some(phase) = self.lifting {
-            for (k, key) in self.current.keys.iter_mut().enumerate() {
-                if let Some(key) = key.as_mut().filter(|_| k * 5 % LIFT_SPREAD_BLOCKS == phase) {
-                    key.set_noise(noise);
-                    key.lift_damper(sustain, bend);
-                }
-            }
-            self.lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
-        }
-        {
-            // Each key's pairs trade once every SYMPATHY_BLOCKS blocks, an
-            // eighth of the keys each block.
-            let phase = ((self.clock / CONTROL_BLOCK as u64) % SYMPATHY_BLOCKS as u64) as usize;
-            let current = &mut *self.current;
-            current.sympathy.trade(&mut current.keys, self.controls.sympathy, sustain, bend, SILENCE, phase);
+        let before = self.before_keys();
+        let current = &mut *self.current;
+        before.run(&mut current.keys, &mut current.sympathy, &mut self.lifting);
+    }
+
+    /// What a control block does before its keys are told, as it stands.
+    fn before_keys(&self) -> BeforeKeys {
+        BeforeKeys {
+            sustain: self.sustain,
+            bend: self.bend,
+            noise: self.controls.noise(),
+            sympathy: self.controls.sympathy,
+            block: self.clock / CONTROL_BLOCK as u64,
         }
     }
 
@@ -1184,17 +1292,19 @@ impl Synth {
     }
 
     /// A stretch of `len` samples at `pos` shared with the helper, its keys'
-    /// control block first if one begins here (`control`, at `time`): the
-    /// keys cut in halves, the helper's half after the body's run over the
-    /// stretch `before` (whose samples are then written to `left` and
-    /// `right`). The body is a sink: nothing the keys do waits on it, so the
-    /// whole stretch is one piece of shared work, not three (the keys'
-    /// control, their sound, the body's halves), and the cores wait on each
-    /// other once a stretch instead of two to four times (but for the body
-    /// over the last stretch before an event, or a host block's end, which
-    /// runs alone). Every key and the body take the same steps, in the same
-    /// order, as on one thread. Returns the stretch, whose body is still to
-    /// run.
+    /// control block first if one begins here (`control`, at `time`). The
+    /// body is a sink: nothing the keys do waits on it, so its run over the
+    /// stretch `before` is put off to this one and the whole stretch is one
+    /// piece of shared work: the calling thread trades among the strings
+    /// through the body (it reads and moves every key) while the helper runs
+    /// the body over the stretch before; then each tells and sounds its half
+    /// of the keys. The cores wait on each other once a stretch instead of
+    /// two to four times, and the trading, which only one core can do, no
+    /// longer leaves the other idle (but for the body over the last stretch
+    /// before an event, or a host block's end, which runs alone). Every key
+    /// and the body take the same steps, in the same order, as on one
+    /// thread. The stretch `before`'s samples are written to `left` and
+    /// `right`; returns this stretch, whose body is still to run.
     fn stretch_beside<T: OutputSample>(
         &mut self,
         (pos, len): (usize, usize),
@@ -1203,15 +1313,13 @@ impl Synth {
         left: &mut [T],
         right: &mut [T],
     ) -> Stretch {
-        if control {
-            self.control_before_keys();
-        }
-        let tick = self.key_tick();
+        let (tick, before_keys) = (self.key_tick(), self.before_keys());
+        let lifting = &mut self.lifting;
         let instrument = &mut *self.current;
         std::mem::swap(&mut instrument.bridge, &mut instrument.bridge_before);
         let half = instrument.half.min(instrument.keys.len());
-        let Instrument { keys, forces, sounded, soundboard, bridge_before, heard, .. } = instrument;
-        let (low, high) = keys.split_at_mut(half);
+        let Instrument { keys, forces, sounded, soundboard, bridge_before, heard, sympathy, .. } = instrument;
+        let shared = SharedKeys::new(keys);
         let (forces_low, forces_high) = forces.split_at_mut(half);
         let (sounded_low, sounded_high) = sounded.split_at_mut(half);
         let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
@@ -1220,6 +1328,15 @@ impl Synth {
             self.helper.as_mut(),
             || {
                 let start = std::time::Instant::now();
+                {
+                    let _release = Release(&shared);
+                    if control {
+                        // SAFETY: on this thread, before the release; no other slice alive.
+                        before_keys.run(unsafe { shared.all() }, sympathy, lifting);
+                    }
+                }
+                // SAFETY: the lower half, on this thread, `all`'s slice dead.
+                let low = unsafe { shared.half(half, false) };
                 if control {
                     tick.control(low, &mut low_ended);
                 }
@@ -1231,6 +1348,9 @@ impl Synth {
                 if before.is_some() {
                     run_body(soundboard, bridge_before, heard, None);
                 }
+                shared.wait();
+                // SAFETY: the upper half, on this thread only, after the release.
+                let high = unsafe { shared.half(half, true) };
                 if control {
                     tick.control(high, &mut high_ended);
                 }

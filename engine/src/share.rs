@@ -1,9 +1,9 @@
 //! Work shared between two cores, offline: the synth's keys and its body each
 //! cut in two halves that never write to the same place, the second half run
 //! by a [`Helper`] thread while the caller runs the first (or, while a render
-//! through the body is not watched, the keys cut in two and the helper's half
-//! run after the body's run over the stretch before:
-//! `Synth::stretch_beside`). Which half a piece
+//! through the body is not watched, one job a stretch: the caller trades
+//! among the strings while the helper runs the body over the stretch before,
+//! then each tells and sounds its half of the keys: `Synth::stretch_beside`). Which half a piece
 //! of work falls in, and the order the halves' sums are added in, never
 //! depend on whether a helper ran one, so a render is bit-identical on one
 //! thread and on two.

@@ -102,7 +102,7 @@ struct Shared {
 /// A value alone on its cache line (two cores polling neighbours would
 /// pass the line back and forth).
 #[repr(align(128))]
-struct CachePadded<T>(T);
+pub(crate) struct CachePadded<T>(pub(crate) T);
 
 impl<T> std::ops::Deref for CachePadded<T> {
     type Target = T;
@@ -221,6 +221,8 @@ impl Helper {
 
     /// Run `a` here and `b` on the helper, side by side; return once both
     /// have. A panic in either is passed on (after both have finished).
+    /// While the caller runs alone (the judge's choice), `a` then `b` here:
+    /// `b` may wait on something `a` does, never the other way round.
     /// (`&mut`: one job at a time, and none posted from inside another.)
     pub fn join<A: FnOnce(), B: FnOnce() + Send>(&mut self, a: A, b: B) {
         if !self.hands_over() {
@@ -253,15 +255,22 @@ struct WaitForHelper<'a>(&'a Shared);
 impl Drop for WaitForHelper<'_> {
     fn drop(&mut self) {
         // The other half is about as long as this one: spin.
-        let mut spins = 0u32;
-        let mut since = None;
-        while !self.0.done.load(Ordering::Acquire) {
-            spins = spins.wrapping_add(1);
-            if spins.is_multiple_of(SPINS_PER_LOOK)
-                && since.get_or_insert_with(Instant::now).elapsed() > SPIN_BEFORE_YIELDING
-            {
-                std::thread::yield_now();
-            }
+        spin_until(&self.0.done);
+    }
+}
+
+/// Wait for `flag` to be set by the other thread (Acquire): spinning on
+/// reads, the core yielded at each look after [`SPIN_BEFORE_YIELDING`] (on a
+/// busy machine the other thread may be waiting for this core).
+pub(crate) fn spin_until(flag: &AtomicBool) {
+    let mut spins = 0u32;
+    let mut since = None;
+    while !flag.load(Ordering::Acquire) {
+        spins = spins.wrapping_add(1);
+        if spins.is_multiple_of(SPINS_PER_LOOK)
+            && since.get_or_insert_with(Instant::now).elapsed() > SPIN_BEFORE_YIELDING
+        {
+            std::thread::yield_now();
         }
     }
 }
@@ -324,7 +333,8 @@ impl Drop for Helper {
     }
 }
 
-/// Run `a` and `b`: side by side if there is a `helper`, else `a` first.
+/// Run `a` and `b`: side by side if there is a `helper`, else `a` first (so
+/// `b` may wait on `a`, never the other way round).
 #[inline]
 pub(crate) fn both<A: FnOnce(), B: FnOnce() + Send>(helper: Option<&mut Helper>, a: A, b: B) {
     match helper {

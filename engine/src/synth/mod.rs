@@ -31,12 +31,13 @@ use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard}
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
-use crate::share::Helper;
+use crate::share::{CachePadded, Helper};
 use crate::string::StringError;
 use crate::string::Tuning;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
+use std::marker::PhantomData;
 use std::sync::atomic::{AtomicBool, Ordering};
 use sympathy::Sympathy;
 
@@ -531,18 +532,21 @@ impl BeforeKeys {
 
 /// The keys of one instrument, for [`Synth::stretch_beside`]: the calling
 /// thread trades among all of them while the helper runs the body, then each
-/// thread takes its half.
-struct SharedKeys {
+/// thread takes its half. Holds the keys' borrow for as long as it lives.
+struct SharedKeys<'a> {
     start: *mut Option<Key>,
     len: usize,
     /// Set once the calling thread is done with every key (or unwinds).
-    released: AtomicBool,
+    released: CachePadded<AtomicBool>,
+    keys: PhantomData<&'a mut [Option<Key>]>,
 }
 
-// SAFETY: the keys are `Send` (a helper already sounds half of them); the
-// pointer is only turned into slices as `SharedKeys`'s methods allow, which
-// keep the two threads off each other's keys (see `all`).
-unsafe impl Sync for SharedKeys {}
+// SAFETY: the helper's closure holds a `&SharedKeys`; through it, safe code
+// reaches only the flag (`wait`, `release`). Every slice of the keys comes
+// from an unsafe method whose caller keeps the slices from overlapping in
+// time and orders them by the flag (Release, then Acquire), and a key may be
+// used on the helper's thread (`Option<Key>: Send`, checked below).
+unsafe impl Sync for SharedKeys<'_> {}
 
 const _: () = {
     // What `SharedKeys` hands to the helper must be able to go there.
@@ -550,20 +554,27 @@ const _: () = {
     sendable::<Option<Key>>();
 };
 
-impl SharedKeys {
-    fn new(keys: &mut [Option<Key>]) -> Self {
-        Self { start: keys.as_mut_ptr(), len: keys.len(), released: AtomicBool::new(false) }
+impl<'a> SharedKeys<'a> {
+    fn new(keys: &'a mut [Option<Key>]) -> Self {
+        Self {
+            start: keys.as_mut_ptr(),
+            len: keys.len(),
+            released: CachePadded(AtomicBool::new(false)),
+            keys: PhantomData,
+        }
     }
 
     /// Every key.
     ///
     /// # Safety
     ///
-    /// Only on the calling thread, before [`Self::release`], and no other
-    /// slice of these keys alive meanwhile.
+    /// Not after [`Self::release`], no other slice from `self` alive while
+    /// this one is, and this one dead before `release` is called.
     #[allow(clippy::mut_from_ref)]
     unsafe fn all(&self) -> &mut [Option<Key>] {
-        // SAFETY: the caller's contract; `start..start + len` is one live slice.
+        // SAFETY: `start..start + len` is the slice `new` borrowed, held
+        // unmoved and untouched for `'a`; the caller keeps this the only
+        // slice of it alive.
         unsafe { std::slice::from_raw_parts_mut(self.start, self.len) }
     }
 
@@ -572,35 +583,34 @@ impl SharedKeys {
         self.released.store(true, Ordering::Release);
     }
 
-    /// The keys below `half` (the calling thread's, once it has let go of
-    /// [`Self::all`]) or from `half` on (the helper's, once released).
+    /// The keys below `half` or (`upper`) from `half` on.
     ///
     /// # Safety
     ///
-    /// Each half taken by one thread only; the upper half only after
-    /// [`Self::wait`] returned; the lower only after the slice from
-    /// [`Self::all`] is dead.
+    /// No two live slices from `self` overlap: each half taken by one
+    /// thread, the lower only once the slice from [`Self::all`] is dead, the
+    /// upper only after [`Self::wait`] has returned, and never by the thread
+    /// that released.
     #[allow(clippy::mut_from_ref)]
     unsafe fn half(&self, half: usize, upper: bool) -> &mut [Option<Key>] {
         let half = half.min(self.len);
         let (from, len) = if upper { (half, self.len - half) } else { (0, half) };
-        // SAFETY: within the slice `new` took; the halves do not overlap.
+        // SAFETY: within the slice `new` borrowed (live, unmoved, reached only
+        // through `self` for `'a`); the caller keeps the halves apart.
         unsafe { std::slice::from_raw_parts_mut(self.start.add(from), len) }
     }
 
-    /// Wait until the calling thread has released the keys (spinning on
-    /// reads, as the helper waits for its work: see [`crate::share`]).
-    #[allow(clippy::missing_spin_loop)]
+    /// Wait until the calling thread has released the keys.
     fn wait(&self) {
-        while !self.released.load(Ordering::Acquire) {}
+        crate::share::spin_until(&self.released);
     }
 }
 
 /// Releases the keys when dropped, so a panic on the calling thread cannot
 /// leave the helper waiting.
-struct Release<'a>(&'a SharedKeys);
+struct Release<'a, 'k>(&'a SharedKeys<'k>);
 
-impl Drop for Release<'_> {
+impl Drop for Release<'_, '_> {
     fn drop(&mut self) {
         self.0.release();
     }
@@ -1327,15 +1337,16 @@ impl Synth {
         crate::share::both(
             self.helper.as_mut(),
             || {
+                // (First: whatever happens after, the helper is let go.)
+                let release = Release(&shared);
                 let start = std::time::Instant::now();
-                {
-                    let _release = Release(&shared);
-                    if control {
-                        // SAFETY: on this thread, before the release; no other slice alive.
-                        before_keys.run(unsafe { shared.all() }, sympathy, lifting);
-                    }
+                if control {
+                    // SAFETY: before the release; the only slice alive, dead
+                    // once the trade returns.
+                    before_keys.run(unsafe { shared.all() }, sympathy, lifting);
                 }
-                // SAFETY: the lower half, on this thread, `all`'s slice dead.
+                drop(release);
+                // SAFETY: the lower half, on this thread; `all`'s slice is dead.
                 let low = unsafe { shared.half(half, false) };
                 if control {
                     tick.control(low, &mut low_ended);
@@ -1349,7 +1360,8 @@ impl Synth {
                     run_body(soundboard, bridge_before, heard, None);
                 }
                 shared.wait();
-                // SAFETY: the upper half, on this thread only, after the release.
+                // SAFETY: the upper half, on this thread only, after the
+                // release (the other thread keeps to the lower half now).
                 let high = unsafe { shared.half(half, true) };
                 if control {
                     tick.control(high, &mut high_ended);

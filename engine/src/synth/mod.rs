@@ -427,12 +427,27 @@ impl Instrument {
             || low_s = sound_keys(low, (forces_low, sounded_low), n, watch_low),
             || high_s = sound_keys(high, (forces_high, sounded_high), n, watch_high),
         );
+        self.drive_sounded(n);
+        self.even_out(low_s, high_s);
+    }
+
+    /// Drive the bridge with the rows of force of the keys that sounded over
+    /// the stretch's `n` samples, in the keys' order (so where they were cut
+    /// between two threads changes no sample).
+    fn drive_sounded(&mut self, n: usize) {
         for ((key, force), _) in self.keys.iter_mut().zip(&self.forces).zip(&self.sounded).filter(|(_, s)| **s) {
             if let Some(key) = key.as_mut() {
                 key.drive(&mut self.bridge, &force[..n]);
             }
         }
-        self.even_out(low_s, high_s);
+    }
+
+    /// Start the bridge for a stretch of `n` samples heard through `output`:
+    /// the body runs once per microphone while a key has a place of its own.
+    fn start_bridge(&mut self, n: usize, output: Output) {
+        let split = output == Output::Microphones
+            && (self.soundboard.is_split() || self.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
+        self.bridge.start(n, output == Output::BridgeForce, split);
     }
 
     /// Move the cut between the keys' halves toward where they would have
@@ -1378,18 +1393,9 @@ impl Synth {
             // (The cut is weighed only where the helper's half had the body in it.)
             instrument.even_out(low_s, high_s);
         }
-        // The bridge as `Self::render` starts it (which keys are placed is
-        // known once they are told).
-        let split = instrument.soundboard.is_split()
-            || instrument.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed());
-        instrument.bridge.start(len, false, split);
-        for ((key, force), _) in
-            instrument.keys.iter_mut().zip(&instrument.forces).zip(&instrument.sounded).filter(|(_, s)| **s)
-        {
-            if let Some(key) = key.as_mut() {
-                key.drive(&mut instrument.bridge, &force[..len]);
-            }
-        }
+        // (Started once the keys are told: which are placed is known then.)
+        instrument.start_bridge(len, Output::Microphones);
+        instrument.drive_sounded(len);
         if let Some(b) = before {
             self.emit_before(b, left, right);
         }
@@ -1410,6 +1416,7 @@ impl Synth {
     /// [`Self::render`] writes a stretch's.
     fn emit_before<T: OutputSample>(&mut self, before: Stretch, left: &mut [T], right: &mut [T]) {
         let Stretch { pos, len } = before;
+        // (Added to a silent mix, as `render` does: the same zeros' signs.)
         let [mix_l, mix_r] = &mut *self.mix;
         mix_l[..len].fill(0.0);
         mix_r[..len].fill(0.0);
@@ -1427,11 +1434,7 @@ impl Synth {
         let scope_key = self.scope.key();
         let output = self.controls.output;
         for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
-            // The body runs once per microphone while a key has a place of its own.
-            let split = output == Output::Microphones
-                && (instrument.soundboard.is_split()
-                    || instrument.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
-            instrument.bridge.start(n, output == Output::BridgeForce, split);
+            instrument.start_bridge(n, output);
             let watch = scope_key.filter(|_| i == 0).map(|k| (k, &mut self.scope));
             instrument.sound(n, self.helper.as_mut(), watch);
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n], self.helper.as_mut());

@@ -29,8 +29,10 @@ pub fn no_device_message(reasons: &str) -> String {
 /// (or asks for its version); `struck --help` shows both helps. Returns the exit
 /// status when the standalone ran (or refused to), None to let `cli` parse.
 pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
-    let args: Vec<String> = std::env::args().collect();
-    let first = args.get(1).map(String::as_str);
+    let raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let first = raw.get(1).and_then(|a| a.to_str());
+    // (The program's own path, which the standalone is handed too, may be any bytes.)
+    let args = || raw.iter().map(|a| a.to_string_lossy().into_owned()).collect::<Vec<String>>();
     let ours = |word: &str| {
         word == "help"
             || word == "-V"
@@ -39,19 +41,26 @@ pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
     };
     match first {
         Some(word) if ours(word) => None,
-        Some("-h" | "--help") if args.len() == 2 => {
+        // The subcommands take paths that need not be UTF-8 (their parser
+        // reads them as the system gives them); the standalone's options are
+        // all text.
+        _ if let Some(bad) = raw.iter().skip(1).find(|a| a.to_str().is_none()) => {
+            eprintln!("struck: the argument {:?} is not valid UTF-8", bad.to_string_lossy());
+            Some(ExitCode::from(2))
+        }
+        Some("-h" | "--help") if raw.len() == 2 => {
             let mut cli = cli.clone();
             let _ = cli.print_long_help();
             println!("\nWith no command, struck plays live (JACK or ALSA, MIDI in, the panel in a window):\n");
             let _ = std::io::stdout().flush();
-            Some(run(args))
+            Some(run(args()))
         }
         Some(word) if !word.starts_with('-') => {
             let names: Vec<&str> = cli.get_subcommands().map(|s| s.get_name()).collect();
             eprintln!("struck: no command {word:?} (the commands: {}; none plays live)", names.join(", "));
             Some(ExitCode::from(2))
         }
-        _ => Some(run(args)),
+        _ => Some(run(args())),
     }
 }
 

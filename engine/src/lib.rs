@@ -71,15 +71,39 @@ pub fn printable(text: &str) -> String {
     out
 }
 
+/// `value` as a message quotes it: as written for everyday sizes, in exponent
+/// form beyond them (a 1e300 read from a file is not shown three hundred
+/// digits long).
+pub fn readable(value: f64) -> String {
+    if value != 0.0 && value.is_finite() && !(1e-6..1e9).contains(&value.abs()) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn numbers_read_short_at_any_size() {
+        assert_eq!(super::readable(440.0), "440");
+        assert_eq!(super::readable(-0.25), "-0.25");
+        assert_eq!(super::readable(1e300), "1e300");
+        assert_eq!(super::readable(-2.5e-30), "-2.5e-30");
+        assert_eq!(super::readable(f64::NAN), "NaN");
+        assert_eq!(super::readable(0.0), "0");
+    }
+}
+
 pub mod action;
 pub mod body;
 pub(crate) mod damper;
-pub mod phantom;
 pub mod design;
 pub mod exciter;
 pub mod input;
 pub(crate) mod key;
 pub mod modal_bank;
+pub mod phantom;
 pub mod preset;
 pub mod rng;
 pub mod share;

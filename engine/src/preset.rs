@@ -81,8 +81,7 @@ impl From<FieldError> for PresetError {
 impl Preset {
     /// Read and check a preset from JSON text.
     pub fn parse(text: &str) -> Result<Self, PresetError> {
-        let mut value: Value =
-            serde_json::from_str(text).map_err(|e| PresetError::Invalid(format!("not valid JSON: {e}")))?;
+        let mut value = strict_json(text).map_err(|e| PresetError::Invalid(format!("not valid JSON: {e}")))?;
         upgrade(&mut value);
         let Value::Object(top) = &value else {
             return Err(PresetError::Invalid("a preset must be a JSON object".into()));
@@ -189,6 +188,71 @@ impl Preset {
     }
 }
 
+/// JSON text as a value, refusing an object that names a key twice (which
+/// serde_json settles silently by keeping the last: a pasted line would
+/// change a setting without a word). For presets and the lab's case files.
+pub fn strict_json(text: &str) -> Result<Value, serde_json::Error> {
+    use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+
+    struct Strict(Value);
+    struct Once;
+
+    impl<'de> Deserialize<'de> for Strict {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            d.deserialize_any(Once).map(Strict)
+        }
+    }
+
+    impl<'de> Visitor<'de> for Once {
+        type Value = Value;
+
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a JSON value")
+        }
+        fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
+            Ok(Value::Bool(v))
+        }
+        fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_str<E>(self, v: &str) -> Result<Value, E> {
+            Ok(Value::String(v.to_owned()))
+        }
+        fn visit_string<E>(self, v: String) -> Result<Value, E> {
+            Ok(Value::String(v))
+        }
+        fn visit_unit<E>(self) -> Result<Value, E> {
+            Ok(Value::Null)
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+            let mut items = Vec::new();
+            while let Some(Strict(item)) = seq.next_element()? {
+                items.push(item);
+            }
+            Ok(Value::Array(items))
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
+            let mut object = serde_json::Map::new();
+            while let Some(key) = map.next_key::<String>()? {
+                if object.contains_key(&key) {
+                    return Err(de::Error::custom(format!("\"{}\" is given twice", crate::printable(&key))));
+                }
+                let Strict(value) = map.next_value()?;
+                object.insert(key, value);
+            }
+            Ok(Value::Object(object))
+        }
+    }
+
+    serde_json::from_str::<Strict>(text).map(|s| s.0)
+}
+
 fn field(name: &str, reason: String) -> FieldError {
     FieldError { field: name.to_string(), reason }
 }
@@ -197,7 +261,7 @@ fn within(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<(), Fi
     if (lo..=hi).contains(&value) {
         Ok(())
     } else {
-        Err(field(name, format!("must be from {lo} to {hi}{unit} (got {value})")))
+        Err(field(name, format!("must be from {lo} to {hi}{unit} (got {})", crate::readable(value))))
     }
 }
 

@@ -86,7 +86,12 @@ impl TuningSettings {
         if !A4_RANGE_HZ.contains(&self.a4_hz) {
             return Err(FieldError::new(
                 "a4_hz",
-                format!("must be from {} to {} Hz (got {})", A4_RANGE_HZ.start(), A4_RANGE_HZ.end(), self.a4_hz),
+                format!(
+                    "must be from {} to {} Hz (got {})",
+                    A4_RANGE_HZ.start(),
+                    A4_RANGE_HZ.end(),
+                    crate::readable(self.a4_hz)
+                ),
             ));
         }
         if self.root > 11 {
@@ -96,7 +101,10 @@ impl TuningSettings {
             ));
         }
         if !(0.0..=1.0).contains(&self.stretch) {
-            return Err(FieldError::new("stretch", format!("must be from 0 to 1 (got {})", self.stretch)));
+            return Err(FieldError::new(
+                "stretch",
+                format!("must be from 0 to 1 (got {})", crate::readable(self.stretch)),
+            ));
         }
         if let Some(scale) = &self.scale {
             scale.validate().map_err(|e| e.within("scale"))?;
@@ -388,6 +396,8 @@ mod tests {
         for (text, expected) in [
             ("12\n0\n127\n60\n69\n", "no reference frequency line (the file ends at line 5)"),
             ("12\n0\n127\n60\n69\n-440\n12\n", r#"line 6: "-440" is not a frequency (a positive number of Hz)"#),
+            ("12\n0\n127\n60\n69\n1e-30\n12\n", "line 6: the reference frequency 1e-30 Hz is not from 1 to 25000 Hz"),
+            ("12\n0\n127\n60\n69\n1e300\n12\n", "line 6: the reference frequency 1e300 Hz is not from 1 to 25000 Hz"),
             ("12\n0\n200\n60\n69\n440\n12\n", "line 3: last key to retune must be from 0 to 127 (got 200)"),
             ("12\n100\n20\n60\n69\n440\n12\n", "line 3: the last key 20 is below the first key 100"),
             ("2\n0\n127\n60\n60\n440\n12\n0\n1\n2\n", r#"line 10: "2" is one entry more than the size of the map, 2"#),
@@ -423,7 +433,12 @@ mod tests {
         bad.scale.as_mut().unwrap().keyboard_mapping.as_mut().unwrap().reference_hz = 0.0;
         assert_eq!(
             bad.validate().unwrap_err().to_string(),
-            "scale.keyboard_mapping.reference_hz: must be a positive frequency (got 0)"
+            "scale.keyboard_mapping.reference_hz: must be a frequency from 1 to 25000 Hz (got 0)"
+        );
+        bad.scale.as_mut().unwrap().keyboard_mapping.as_mut().unwrap().reference_hz = 1e300;
+        assert_eq!(
+            bad.validate().unwrap_err().to_string(),
+            "scale.keyboard_mapping.reference_hz: must be a frequency from 1 to 25000 Hz (got 1e300)"
         );
     }
 

@@ -26,6 +26,11 @@ pub const MAX_MAP_SIZE: usize = 4096;
 pub const MAX_DEGREE_CENTS: f64 = 120_000.0;
 /// A tuning file is read only up to this size, bytes.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
+/// The frequencies a keyboard mapping's reference key may be tuned to, Hz:
+/// MIDI's key 0 sounds at 8.2 Hz and key 127 at 12.5 kHz in equal
+/// temperament; a reference far outside leaves every key silent or beyond
+/// hearing.
+pub const REFERENCE_RANGE_HZ: std::ops::RangeInclusive<f64> = 1.0..=25_000.0;
 
 /// A scale in the Scala `.scl` format: degree 0 is 1/1, `degrees_cents` the rest;
 /// the last degree is the period the scale repeats at (usually the octave).
@@ -211,7 +216,7 @@ impl ScalaScale {
         if !(period > 0.0) {
             return Err(at(
                 last_line,
-                format!("the last pitch is the period and must be above 1/1 (got {period} cents)"),
+                format!("the last pitch is the period and must be above 1/1 (got {} cents)", crate::readable(period)),
             ));
         }
         Ok(Self { description: description.trim().to_string(), degrees_cents, keyboard_mapping: None })
@@ -247,14 +252,17 @@ impl ScalaScale {
             if !(c.is_finite() && c.abs() <= MAX_DEGREE_CENTS) {
                 return Err(FieldError::new(
                     format!("degrees_cents[{i}]"),
-                    format!("must be within {MAX_DEGREE_CENTS} cents of 1/1 (got {c})"),
+                    format!("must be within {MAX_DEGREE_CENTS} cents of 1/1 (got {})", crate::readable(c)),
                 ));
             }
         }
         if !(self.period_cents() > 0.0) {
             return Err(FieldError::new(
                 format!("degrees_cents[{}]", n - 1),
-                format!("the last pitch is the period and must be above 0 cents (got {})", self.period_cents()),
+                format!(
+                    "the last pitch is the period and must be above 0 cents (got {})",
+                    crate::readable(self.period_cents())
+                ),
             ));
         }
         if let Some(mapping) = &self.keyboard_mapping {
@@ -302,7 +310,14 @@ impl KeyboardMapping {
         let reference_key = key(reference, "reference key")?;
         let (hz_line, hz_word) = next("reference frequency")?;
         let reference_hz = match hz_word.parse::<f64>() {
-            Ok(hz) if hz.is_finite() && hz > 0.0 => hz,
+            Ok(hz) if REFERENCE_RANGE_HZ.contains(&hz) => hz,
+            Ok(hz) if hz.is_finite() && hz > 0.0 => {
+                let (low, high) = (REFERENCE_RANGE_HZ.start(), REFERENCE_RANGE_HZ.end());
+                return Err(at(
+                    hz_line,
+                    format!("the reference frequency {hz_word} Hz is not from {low} to {high} Hz"),
+                ));
+            }
             _ => return Err(at(hz_line, format!("\"{hz_word}\" is not a frequency (a positive number of Hz)"))),
         };
         let (line, word) = next("octave degree")?;
@@ -398,10 +413,11 @@ impl KeyboardMapping {
         if self.first_key > self.last_key {
             return Err(FieldError::new("last_key", format!("is below first_key {}", self.first_key)));
         }
-        if !(self.reference_hz.is_finite() && self.reference_hz > 0.0) {
+        if !REFERENCE_RANGE_HZ.contains(&self.reference_hz) {
+            let (low, high) = (REFERENCE_RANGE_HZ.start(), REFERENCE_RANGE_HZ.end());
             return Err(FieldError::new(
                 "reference_hz",
-                format!("must be a positive frequency (got {})", self.reference_hz),
+                format!("must be a frequency from {low} to {high} Hz (got {})", crate::readable(self.reference_hz)),
             ));
         }
         let max_degree = MAX_SCALE_DEGREES * 1024;

@@ -282,7 +282,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         println!(
             "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
              ({:.1}x real time), {peak_note}",
-            args.out.display(),
+            super::shown(&args.out),
             count(notes, "note"),
             audio_s / wall_s.max(1e-9)
         );
@@ -341,7 +341,10 @@ fn check_sample_rate(hz: f64) -> Result<u32, Failure> {
     if hz.fract() == 0.0 && (f64::from(lo)..=f64::from(hi)).contains(&hz) {
         Ok(hz as u32)
     } else {
-        Err(Failure::bad_input(format!("--sample-rate: must be a whole number of Hz from {lo} to {hi} (got {hz})")))
+        Err(Failure::bad_input(format!(
+            "--sample-rate: must be a whole number of Hz from {lo} to {hi} (got {})",
+            struck_engine::readable(hz)
+        )))
     }
 }
 
@@ -349,7 +352,10 @@ fn check_mpe(range: Option<f64>) -> Result<Option<f32>, Failure> {
     match range {
         None => Ok(None),
         Some(r) if (0.0..=96.0).contains(&r) => Ok(Some(r as f32)),
-        Some(r) => Err(Failure::bad_input(format!("--mpe: the bend range must be from 0 to 96 semitones (got {r})"))),
+        Some(r) => Err(Failure::bad_input(format!(
+            "--mpe: the bend range must be from 0 to 96 semitones (got {})",
+            struck_engine::readable(r)
+        ))),
     }
 }
 
@@ -357,7 +363,10 @@ fn check_tail(tail_s: f64) -> Result<f64, Failure> {
     if (0.0..=MAX_TAIL_S).contains(&tail_s) {
         Ok(tail_s)
     } else {
-        Err(Failure::bad_input(format!("--tail-s: must be from 0 to {MAX_TAIL_S:.0} s (got {tail_s})")))
+        Err(Failure::bad_input(format!(
+            "--tail-s: must be from 0 to {MAX_TAIL_S:.0} s (got {})",
+            struck_engine::readable(tail_s)
+        )))
     }
 }
 
@@ -374,9 +383,10 @@ fn tuning(args: &RenderArgs, preset: &TuningSettings) -> Result<TuningSettings, 
     if let Some(hz) = args.a4 {
         if !A4_RANGE_HZ.contains(&hz) {
             return Err(Failure::bad_input(format!(
-                "--a4: must be from {} to {} Hz (got {hz})",
+                "--a4: must be from {} to {} Hz (got {})",
                 A4_RANGE_HZ.start(),
-                A4_RANGE_HZ.end()
+                A4_RANGE_HZ.end(),
+                struck_engine::readable(hz)
             )));
         }
         tuning.a4_hz = hz;
@@ -392,7 +402,10 @@ fn tuning(args: &RenderArgs, preset: &TuningSettings) -> Result<TuningSettings, 
     }
     if let Some(stretch) = args.stretch {
         if !(0.0..=1.0).contains(&stretch) {
-            return Err(Failure::bad_input(format!("--stretch: must be from 0 to 1 (got {stretch})")));
+            return Err(Failure::bad_input(format!(
+                "--stretch: must be from 0 to 1 (got {})",
+                struck_engine::readable(stretch)
+            )));
         }
         tuning.stretch = stretch;
     }

@@ -21,7 +21,7 @@ pub struct StrikeArgs {
     /// Gain from newtons to WAV full scale, in dB (0 dB: 1 N = 1.0). Without it the
     /// WAV is normalised to a peak of -1 dBFS. A fixed gain keeps the relative
     /// loudness of several strikes.
-    #[arg(long, value_name = "DB", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DB", allow_negative_numbers = true, requires = "wav")]
     pub wav_gain_db: Option<f64>,
     /// Change one field of the case before it is checked, e.g. --set exciter.speed_m_s=2.5
     /// (repeatable; the value is JSON, or a bare word for a string).
@@ -40,7 +40,6 @@ const MAX_WAV_GAIN_DB: f64 = 200.0;
 /// Bytes a row of trace.csv takes at most: five numbers in shortest form.
 const CSV_BYTES_PER_ROW: u64 = 5 * 24 + 1;
 
-
 fn stop_if_interrupted() -> Result<(), Failure> {
     if crate::cleanup::interrupted() { Err(Failure::interrupted()) } else { Ok(()) }
 }
@@ -52,7 +51,9 @@ fn null_field(value: &serde_json::Value, at: &str) -> Option<String> {
     match value {
         serde_json::Value::Null => Some(at.to_string()),
         serde_json::Value::Object(map) => map.iter().find_map(|(k, v)| null_field(v, &join(k))),
-        serde_json::Value::Array(items) => items.iter().enumerate().find_map(|(i, v)| null_field(v, &format!("{at}[{i}]"))),
+        serde_json::Value::Array(items) => {
+            items.iter().enumerate().find_map(|(i, v)| null_field(v, &format!("{at}[{i}]")))
+        }
         _ => None,
     }
 }
@@ -82,7 +83,14 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         && !(gain.is_finite() && gain.abs() <= MAX_WAV_GAIN_DB)
     {
         return Err(Failure::bad_input(format!(
-            "--wav-gain-db: must lie between -{MAX_WAV_GAIN_DB} and {MAX_WAV_GAIN_DB} dB (got {gain})"
+            "--wav-gain-db: must lie between -{MAX_WAV_GAIN_DB} and {MAX_WAV_GAIN_DB} dB (got {})",
+            struck_engine::readable(gain)
+        )));
+    }
+    if args.wav.is_some() && case.sample_rate_hz.fract() != 0.0 {
+        return Err(Failure::bad_input(format!(
+            "--wav: the case's sample rate, {} Hz, is not a whole number of Hz, as a WAV's must be",
+            struck_engine::readable(case.sample_rate_hz)
         )));
     }
     // Room for the trace in memory and the files on disk, before starting.
@@ -105,11 +113,12 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     let metrics = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
     staged.write(&metrics_path, |w| writeln!(w, "{metrics}"))?;
     stop_if_interrupted()?;
-    staged.write(&trace_path, |w| {
-        write_trace(w, &result)?;
-        stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
-    })
-    .map_err(|e| if crate::cleanup::interrupted() { Failure::interrupted() } else { e })?;
+    staged
+        .write(&trace_path, |w| {
+            write_trace(w, &result)?;
+            stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
+        })
+        .map_err(|e| if crate::cleanup::interrupted() { Failure::interrupted() } else { e })?;
     let mut wav_note = String::new();
     if let Some(wav) = &args.wav {
         let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -128,13 +137,14 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         }
         staged.write_wav(wav, case.sample_rate_hz, &samples)?;
         stop_if_interrupted()?;
-        wav_note = format!(", {} (gain {:+.1} dB re 1 N)", wav.display(), 20.0 * gain.log10());
+        wav_note = format!(", {} (gain {:+.1} dB re 1 N)", super::shown(wav), 20.0 * gain.log10());
     }
     staged.commit()?;
 
     if !args.quiet {
         let m = &result.metrics;
-        let name = m.name.clone().unwrap_or_else(|| shown.to_string());
+        // (A case's name is the user's text: its control characters are shown, not acted on.)
+        let name = m.name.as_deref().map_or_else(|| shown.to_string(), super::failure::printable);
         let contacts = match m.contact_count {
             0 => "no contact".to_string(),
             1 => format!("1 contact, {:.3} ms", m.contact_time_s * 1e3),
@@ -145,7 +155,7 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             "{name}: {} modes to {:.0} Hz; {contacts}{rebound}; bridge force {:.4} N RMS",
             m.string.mode_count, m.string.max_mode_frequency_hz, m.bridge_force_rms_n
         );
-        println!("wrote {}, {}{wav_note}", metrics_path.display(), trace_path.display());
+        println!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path));
     }
     Ok(())
 }

@@ -70,7 +70,8 @@ impl StrikeCase {
 /// Parse and check a case from JSON text, after applying `sets` (each
 /// `path=value`, as given to `--set`).
 pub fn parse_case(text: &str, sets: &[String]) -> Result<StrikeCase, CaseError> {
-    let mut root: Value = serde_json::from_str(text).or_else(|e| refuse("case", format!("not valid JSON: {e}")))?;
+    let mut root =
+        struck_engine::preset::strict_json(text).or_else(|e| refuse("case", format!("not valid JSON: {e}")))?;
     for set in sets {
         apply_set(&mut root, set)?;
     }
@@ -163,7 +164,7 @@ impl<'a> Fields<'a> {
     }
 
     fn check(&self, key: &str, value: f64, ok: bool, rule: &str) -> Result<f64, CaseError> {
-        if ok { Ok(value) } else { refuse(self.name(key), format!("{rule} (got {value})")) }
+        if ok { Ok(value) } else { refuse(self.name(key), format!("{rule} (got {})", struck_engine::readable(value))) }
     }
 
     fn positive(&self, key: &str) -> Result<f64, CaseError> {
@@ -363,7 +364,10 @@ fn q_from_value(q: &Value) -> Result<Damping, CaseError> {
     let check = |field: String, v: &Value| -> Result<f64, CaseError> {
         match v.as_f64() {
             Some(q) if q.is_finite() && q > 0.5 => Ok(q),
-            Some(q) => refuse(field, format!("must be a number greater than 0.5, an underdamped mode (got {q})")),
+            Some(q) => refuse(
+                field,
+                format!("must be a number greater than 0.5, an underdamped mode (got {})", struck_engine::readable(q)),
+            ),
             None => refuse(field, format!("must be a number (got {v})")),
         }
     };

@@ -95,13 +95,13 @@ pub enum SweepError {
     String(#[from] StringError),
     /// A grid mass (kg) or stiffness (N/m^alpha), or the sample rate (Hz), is
     /// zero, negative or not finite.
-    #[error("{what} must be positive and finite (got {value})")]
+    #[error("{what} must be positive and finite (got {})", struck_engine::readable(*.value))]
     NotPositive { what: &'static str, value: f64 },
     /// A grid axis has no values.
     #[error("the {what} axis is empty")]
     EmptyAxis { what: &'static str },
     /// The exponent to compensate to lies outside the lab's range.
-    #[error("the reference exponent must lie between 1 and {MAX_EXPONENT} (got {0})")]
+    #[error("the reference exponent must lie between 1 and {MAX_EXPONENT} (got {})", struck_engine::readable(*.0))]
     BadExponent(f64),
     /// [`equivalent_stiffness`] found no stiffness (N/m^alpha) in its search
     /// range whose contact time (s) reaches the target from both sides.

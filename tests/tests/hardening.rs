@@ -93,7 +93,10 @@ fn a_device_or_folder_is_never_replaced_and_folders_made_for_a_failure_go() {
     let deep = dir.path().join("new").join("deeper");
     refused(&struck(&["strike", &text(&case), "--out", &text(&deep), "--wav", "/dev/null"]), "is not a regular file");
     assert!(!dir.path().join("new").exists(), "the folders made for it are gone");
-    refused(&struck(&["strike", &text(&case), "--out", &text(dir.path()), "--wav", &text(dir.path())]), "is a directory");
+    refused(
+        &struck(&["strike", &text(&case), "--out", &text(dir.path()), "--wav", &text(dir.path())]),
+        "is a directory",
+    );
     refused(&struck(&["strike", &text(&case), "--out", "/dev/null"]), "/dev/null: is not a folder");
     refused(&struck(&["strike", &text(&case), "--out", &text(&case)]), "is not a folder");
     assert_eq!(std::fs::read_to_string(&case).unwrap(), SANTOOR_CASE);
@@ -106,7 +109,10 @@ fn physics_out_of_range_is_refused_naming_the_field() {
     std::fs::write(&case, SANTOOR_CASE).unwrap();
     let out = text(&dir.path().join("o"));
     refused(&struck(&["strike", &text(&case), "--out", &out, "--set", "exciter.stiffness=1e22"]), "exciter.stiffness");
-    refused(&struck(&["strike", &text(&case), "--out", &out, "--wav", "w.wav", "--wav-gain-db", "800"]), "--wav-gain-db");
+    refused(
+        &struck(&["strike", &text(&case), "--out", &out, "--wav", "w.wav", "--wav-gain-db", "800"]),
+        "--wav-gain-db",
+    );
     assert!(!dir.path().join("o").exists());
 }
 
@@ -149,7 +155,16 @@ fn a_stop_signal_during_a_strike_leaves_nothing_behind() {
     std::fs::write(&case, SANTOOR_CASE).unwrap();
     let out = dir.path().join("out").join("deeper");
     let child = std::process::Command::new(struck_tests::struck_binary())
-        .args(["strike", &text(&case), "--out", &text(&out), "--set", "duration_s=60", "--set", "sample_rate_hz=384000"])
+        .args([
+            "strike",
+            &text(&case),
+            "--out",
+            &text(&out),
+            "--set",
+            "duration_s=60",
+            "--set",
+            "sample_rate_hz=384000",
+        ])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -211,4 +226,108 @@ fn a_stop_signal_during_a_chart_leaves_nothing_behind() {
     let done = child.wait_with_output().unwrap();
     assert_eq!(done.status.code(), Some(130), "{}", stderr(&done));
     assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "nothing left");
+}
+
+#[test]
+fn an_argument_that_is_not_text_is_refused_in_one_line() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bad = OsStr::from_bytes(b"bad\xff.mid");
+    let run = |args: &[&OsStr]| std::process::Command::new(struck_tests::struck_binary()).args(args).output().unwrap();
+    // The live program's options are all text.
+    refused(&run(&[OsStr::new("--backend"), bad]), "is not valid UTF-8");
+    // A subcommand's paths need not be: this one is read (and is missing).
+    let song = dir.path().join(bad);
+    let out = dir.path().join("x.wav");
+    refused(&run(&[OsStr::new("render"), song.as_os_str(), OsStr::new("--out"), out.as_os_str()]), "cannot read");
+}
+
+#[test]
+fn an_output_named_by_a_link_is_written_through_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let target = dir.path().join("target.wav");
+    std::fs::write(&target, b"old").unwrap();
+    let link = dir.path().join("link.wav");
+    std::os::unix::fs::symlink("target.wav", &link).unwrap();
+    let out = struck(&["strike", &text(&case), "--out", &text(&dir.path().join("o")), "--wav", &text(&link), "-q"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(link.symlink_metadata().unwrap().file_type().is_symlink(), "the link is kept");
+    assert!(std::fs::read(&target).unwrap().starts_with(b"RIFF"), "the file it leads to is written");
+    // A link that leads nowhere is not written through.
+    let dangling = dir.path().join("dangling.wav");
+    std::os::unix::fs::symlink("nowhere/x.wav", &dangling).unwrap();
+    let o2 = dir.path().join("o2");
+    refused(&struck(&["strike", &text(&case), "--out", &text(&o2), "--wav", &text(&dangling)]), "which does not exist");
+    assert!(!o2.exists() && !dir.path().join("nowhere").exists());
+}
+
+#[test]
+fn an_output_path_that_cannot_be_written_is_refused_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = dir.path().join(format!("{}.wav", "a".repeat(300)));
+    refused(&struck(&["render", &text(&midi("a4.mid")), "--out", &text(&long)]), "File name too long");
+    // A file where the output folder should be: refused at once, naming it.
+    let file = dir.path().join("afile");
+    std::fs::write(&file, "x").unwrap();
+    let inside = text(&file.join("charts"));
+    refused(&struck(&["chart", "stringing", "--out", &inside]), "afile: is not a folder");
+    refused(&struck(&["demo", "--quick", "--out", &inside]), "afile: is not a folder");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "nothing was left beside it");
+}
+
+#[test]
+fn a_chart_is_drawn_inside_its_folder_and_nothing_is_left_beside_or_in_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let charts = dir.path().join("charts");
+    let out = struck(&["chart", "stringing", "--out", &text(&charts)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let names: Vec<String> =
+        std::fs::read_dir(&charts).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert!(!names.is_empty() && names.iter().all(|n| !n.starts_with('.')), "{names:?}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "nothing beside the folder");
+}
+
+#[test]
+fn a_key_given_twice_in_a_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE.replacen('{', "{\"duration_s\": 0.1,", 1)).unwrap();
+    let out = text(&dir.path().join("o"));
+    refused(&struck(&["strike", &text(&case), "--out", &out]), "\"duration_s\" is given twice");
+    let preset = dir.path().join("p.json");
+    std::fs::write(&preset, r#"{"instrument": "piano", "instrument": "santoor"}"#).unwrap();
+    let wav = text(&dir.path().join("x.wav"));
+    refused(&struck(&["render", &text(&midi("a4.mid")), "--out", &wav, "--preset", &text(&preset)]), "given twice");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "nothing written");
+}
+
+#[test]
+fn flags_that_cannot_mean_anything_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let out = text(&dir.path().join("o"));
+    refused(&struck(&["strike", &text(&case), "--out", &out, "--wav-gain-db", "0"]), "--wav");
+    let wav = text(&dir.path().join("w.wav"));
+    let set = "sample_rate_hz=44100.5";
+    refused(&struck(&["strike", &text(&case), "--out", &out, "--set", set, "--wav", &wav]), "not a whole number");
+    refused(&struck(&["bench", "--seconds", "1e-300"]), "--seconds");
+    // A huge number is quoted short.
+    refused(&struck(&["strike", &text(&case), "--out", &out, "--set", "exciter.position=1e300"]), "(got 1e300)");
+    assert!(!dir.path().join("o").exists());
+}
+
+#[test]
+fn a_cases_name_is_printed_with_its_escapes_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case.json");
+    let named = SANTOOR_CASE.replace("\"santoor-a4-at-2/5\"", "\"evil\\u001b[31m\\nname\"");
+    std::fs::write(&case, named).unwrap();
+    let out = struck(&["strike", &text(&case), "--out", &text(&dir.path().join("o"))]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(!said.contains('\u{1b}') && said.contains("evil\\u{1b}[31m\\nname"), "{said:?}");
 }

@@ -90,7 +90,10 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
         return Err(Failure::bad_input(format!("--frames: must lie between 2 and {MAX_FRAMES} (got {})", args.frames)));
     }
     if !(args.periods.is_finite() && args.periods > 0.0 && args.periods <= 100.0) {
-        return Err(Failure::bad_input(format!("--periods: must lie above 0 and at most 100 (got {})", args.periods)));
+        return Err(Failure::bad_input(format!(
+            "--periods: must lie above 0 and at most 100 (got {})",
+            struck_engine::readable(args.periods)
+        )));
     }
     super::output::check_writable(&args.out, &[args.case.as_path()])?;
     let title = case.name.clone().unwrap_or_else(|| args.case.display().to_string());
@@ -102,6 +105,6 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
             .map_err(|e| std::io::Error::other(format!("{e:#}")))
     })?;
     staged.commit()?;
-    println!("wrote {}", args.out.display());
+    println!("wrote {}", super::shown(&args.out));
     Ok(())
 }

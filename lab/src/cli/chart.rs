@@ -131,7 +131,10 @@ fn check_speed(speed: f64) -> Result<f64, Failure> {
     if speed.is_finite() && speed > 0.0 && speed <= 100.0 {
         Ok(speed)
     } else {
-        Err(Failure::bad_input(format!("--speed: must be a speed above 0 and at most 100 m/s (got {speed})")))
+        Err(Failure::bad_input(format!(
+            "--speed: must be a speed above 0 and at most 100 m/s (got {})",
+            struck_engine::readable(speed)
+        )))
     }
 }
 
@@ -180,9 +183,9 @@ fn report(drawn: &[Drawn], started: Instant) {
 pub fn run(args: &ChartArgs) -> Result<(), Failure> {
     let started = Instant::now();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
-    // Drawn into a folder beside --out, then put there together.
+    // Drawn into a folder inside --out, then moved out of it together.
     let final_out = &args.out;
-    let staging = super::output::StagedFolder::beside(final_out)?;
+    let staging = super::output::StagedFolder::within(final_out)?;
     let out = staging.path();
     let drawn = match &args.chart {
         Chart::Hammer(h) => {
@@ -203,11 +206,14 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
         Chart::Strike(s) => {
             let runs = s.cases.len() * s.speeds.len().max(1);
             if runs > MAX_STRIKES {
-                return Err(Failure::bad_input(format!(
-                    "--speeds: {} cases at {} speeds make {runs} strikes on one chart (at most {MAX_STRIKES})",
-                    s.cases.len(),
-                    s.speeds.len()
-                )));
+                let (cases, speeds) = (s.cases.len(), s.speeds.len());
+                return Err(Failure::bad_input(if speeds == 0 {
+                    format!("{cases} cases make {runs} strikes on one chart (at most {MAX_STRIKES})")
+                } else {
+                    format!(
+                        "--speeds: {cases} cases at {speeds} speeds make {runs} strikes on one chart (at most {MAX_STRIKES})"
+                    )
+                }));
             }
             let mut cases = Vec::new();
             for path in &s.cases {
@@ -217,7 +223,10 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                 }
                 for &v in &s.speeds {
                     let v = check_speed(v).map_err(|_| {
-                        Failure::bad_input(format!("--speeds: each must be above 0 and at most 100 m/s (got {v})"))
+                        Failure::bad_input(format!(
+                            "--speeds: each must be above 0 and at most 100 m/s (got {})",
+                            struck_engine::readable(v)
+                        ))
                     })?;
                     let mut c = case.clone();
                     match &mut c.exciter {
@@ -236,9 +245,7 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
             }
             figures::strikes(&cases, out, s.per_speed).map_err(failed)?
         }
-        Chart::Clavichord => {
-            figures::clavichord(out).map_err(failed)?
-        }
+        Chart::Clavichord => figures::clavichord(out).map_err(failed)?,
         Chart::Body(b) => {
             let kind = parse_kind(&b.instrument)?;
             figures::body::body(kind, out).map_err(failed)?

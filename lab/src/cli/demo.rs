@@ -110,9 +110,9 @@ fn films() -> Vec<(&'static str, &'static str, String, crate::strike::StrikeCase
 
 pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    // Drawn into a folder beside --out, then put there together.
+    // Drawn into a folder inside --out, then moved out of it together.
     let final_out = &args.out;
-    let staging = super::output::StagedFolder::beside(final_out)?;
+    let staging = super::output::StagedFolder::within(final_out)?;
     let out = staging.path();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     let grid = if args.quick { QUICK_GRID } else { FULL_GRID };

@@ -5,8 +5,12 @@
 //! stood there before is restored. A destination may not be one of the
 //! command's inputs (the same file, however named), nor named twice, nor
 //! anything but a regular file (a device, a directory, a FIFO is never
-//! replaced). Folders made for the outputs are removed again if nothing was
-//! put in them.
+//! replaced). A destination that is a symbolic link is written through: the
+//! file it leads to is replaced, the link kept. Folders made for the outputs
+//! are removed again if nothing was put in them. A destination the user's
+//! path makes unwritable (no permission, a file where a folder should be, a
+//! name too long, a read-only file system) is refused as bad input; what
+//! goes wrong while writing (a full disk) is a failure.
 
 use std::fs;
 use std::io::{self, BufWriter, Write};
@@ -66,10 +70,55 @@ fn check_destination(path: &Path, inputs: &[(PathBuf, FileId)]) -> Result<(), Fa
     Ok(())
 }
 
+/// The failure to write `path` for `error`: bad input when the path itself
+/// is at fault (see the module's doc), a failure otherwise.
+fn write_failure(verb: &str, path: &Path, error: &io::Error) -> Failure {
+    use io::ErrorKind::*;
+    let message = format!("cannot {verb} {}: {error}", shown(path));
+    match error.kind() {
+        PermissionDenied | NotADirectory | IsADirectory | InvalidFilename | ReadOnlyFilesystem | NotFound => {
+            Failure::bad_input(message)
+        }
+        _ => Failure::failed(message),
+    }
+}
+
+/// Where writing `path` lands: `path` itself, or if it is a symbolic link the
+/// file it leads to (through any chain of links). A link that leads nowhere
+/// is refused rather than written through.
+fn through_links(path: &Path) -> Result<PathBuf, Failure> {
+    let mut at = path.to_path_buf();
+    for _ in 0..MAX_LINKS {
+        match fs::symlink_metadata(&at) {
+            Ok(meta) if meta.file_type().is_symlink() => {
+                let target = fs::read_link(&at).map_err(|e| write_failure("follow", &at, &e))?;
+                at = match at.parent() {
+                    Some(parent) if target.is_relative() => parent.join(target),
+                    _ => target,
+                };
+            }
+            Ok(_) => return Ok(at),
+            Err(_) if at == path => return Ok(at),
+            Err(_) => {
+                return Err(Failure::bad_input(format!(
+                    "{}: is a link to {}, which does not exist; nothing is written through it",
+                    shown(path),
+                    shown(&at)
+                )));
+            }
+        }
+    }
+    Err(Failure::bad_input(format!("{}: leads through more than {MAX_LINKS} links", shown(path))))
+}
+
+/// Links followed from a destination before giving up (as the system does).
+const MAX_LINKS: usize = 40;
+
 /// Check that `path` may be written by a command that read `inputs`, for
 /// those that write through their own staging (charts, animations).
 pub fn check_writable(path: &Path, inputs: &[&Path]) -> Result<(), Failure> {
-    check_destination(path, &Staged::reading(inputs).inputs)
+    check_destination(path, &Staged::reading(inputs).inputs)?;
+    through_links(path).map(|_| ())
 }
 
 impl Staged {
@@ -86,7 +135,7 @@ impl Staged {
         }
         let missing: Vec<&Path> = dir.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).collect();
         for d in missing.into_iter().rev() {
-            fs::create_dir(d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(d))))?;
+            fs::create_dir(d).map_err(|e| write_failure("create", d, &e))?;
             cleanup::track_dir(d);
             self.made.push(d.to_path_buf());
         }
@@ -99,17 +148,21 @@ impl Staged {
     }
 
     /// Have `write_to` write a temporary file beside `path` and stage it.
-    fn stage(&mut self, path: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
-        check_destination(path, &self.inputs)?;
+    fn stage(&mut self, named: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+        check_destination(named, &self.inputs)?;
+        let path = &through_links(named)?;
         if self.files.iter().any(|(_, d)| d == path || identity(d).is_some_and(|id| identity(path) == Some(id))) {
-            return Err(Failure::bad_input(format!("{}: named for two outputs", shown(path))));
+            return Err(Failure::bad_input(format!("{}: named for two outputs", shown(named))));
         }
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
         let temporary = self.temporary_beside(path);
         cleanup::track(&temporary);
-        match write_to(&temporary) {
+        // Whether the folder takes a file at all is asked before any work is
+        // done, and told of the path the user gave.
+        let result = fs::File::create(&temporary).and_then(|_| write_to(&temporary));
+        match result {
             Ok(()) => {
                 self.files.push((temporary, path.to_path_buf()));
                 Ok(())
@@ -117,15 +170,16 @@ impl Staged {
             Err(e) => {
                 let _ = fs::remove_file(&temporary);
                 cleanup::forget(&temporary);
-                Err(Failure::failed(format!("cannot write {}: {e}", shown(path))))
+                Err(write_failure("write", named, &e))
             }
         }
     }
 
     /// Stage `temporary`, a file already written beside `path` (in a
     /// [`StagedFolder`] on the same file system), to be put at `path`.
-    fn adopt(&mut self, temporary: &Path, path: &Path) -> Result<(), Failure> {
-        check_destination(path, &self.inputs)?;
+    fn adopt(&mut self, temporary: &Path, named: &Path) -> Result<(), Failure> {
+        check_destination(named, &self.inputs)?;
+        let path = &through_links(named)?;
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
@@ -200,12 +254,12 @@ impl Staged {
                 check_destination(path, &self.inputs)?;
                 if fs::symlink_metadata(path).is_ok() {
                     let old = path.with_file_name(format!(".struck-{}-{i}.old", std::process::id()));
-                    fs::rename(path, &old).map_err(|e| Failure::failed(format!("cannot replace {}: {e}", shown(path))))?;
+                    fs::rename(path, &old).map_err(|e| write_failure("replace", path, &e))?;
                     aside.push((old, path.clone()));
                 }
             }
             for (temporary, path) in &files {
-                fs::rename(temporary, path).map_err(|e| Failure::failed(format!("cannot write {}: {e}", shown(path))))?;
+                fs::rename(temporary, path).map_err(|e| write_failure("write", path, &e))?;
                 placed.push(path);
             }
             Ok(())
@@ -264,31 +318,34 @@ impl Drop for Staged {
     }
 }
 
-/// A folder beside a command's output folder that its many files are drawn
-/// into, then put in the output folder together ([`Self::commit_into`]); it
-/// is removed with whatever is left in it, also on a stop signal.
+/// A folder inside a command's output folder that its many files are drawn
+/// into, then moved into the output folder together ([`Self::commit_into`]),
+/// on the same file system whatever is mounted where; it is removed with
+/// whatever is left in it, also on a stop signal.
 pub struct StagedFolder {
     path: PathBuf,
-    /// Folders made for it that were missing, outermost first: removed with
-    /// it if nothing was put in them.
+    /// Folders made for it that were missing (the output folder among them),
+    /// outermost first: removed with it if nothing was put in them.
     made: Vec<PathBuf>,
 }
 
 impl StagedFolder {
-    /// A new, empty folder beside `out` (the folders it lies in made if missing).
-    pub fn beside(out: &Path) -> Result<Self, Failure> {
-        let name = format!(".struck-{}-{}.part", std::process::id(), out.file_name().map_or(0, |n| n.len()));
-        let mut staged = Self { path: out.with_file_name(name), made: Vec::new() };
-        if let Some(parent) = staged.path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            let missing: Vec<PathBuf> =
-                parent.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf).collect();
-            for d in missing.into_iter().rev() {
-                fs::create_dir(&d).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&d))))?;
-                cleanup::track_dir(&d);
-                staged.made.push(d);
-            }
+    /// A new, empty folder inside `out` (`out` and the folders it lies in
+    /// made if missing). Refused at once, before any work, if `out` or a
+    /// folder above it is a file, or `out` takes no files.
+    pub fn within(out: &Path) -> Result<Self, Failure> {
+        if let Some(taken) = out.ancestors().find(|d| !d.as_os_str().is_empty() && d.exists() && !d.is_dir()) {
+            return Err(Failure::bad_input(format!("{}: is not a folder; nothing is written into it", shown(taken))));
         }
-        fs::create_dir(&staged.path).map_err(|e| Failure::failed(format!("cannot create {}: {e}", shown(&staged.path))))?;
+        let mut staged = Self { path: out.join(format!(".struck-{}.part", std::process::id())), made: Vec::new() };
+        let missing: Vec<PathBuf> =
+            out.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf).collect();
+        for d in missing.into_iter().rev() {
+            fs::create_dir(&d).map_err(|e| write_failure("create", &d, &e))?;
+            cleanup::track_dir(&d);
+            staged.made.push(d);
+        }
+        fs::create_dir(&staged.path).map_err(|e| write_failure("write into", out, &e))?;
         cleanup::track_tree(&staged.path);
         Ok(staged)
     }

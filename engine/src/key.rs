@@ -30,8 +30,18 @@ use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 use crate::CONTROL_BLOCK;
 
-/// Time constant of a tangent falling back from the strings when the key comes up, s.
-const TANGENT_LIFT_S: f64 = 0.002;
+/// Time constant of a tangent leaving its strings as the key comes up at
+/// release `velocity` (0..=1; 0: not known, as a middling release), s: as
+/// fast as the strings push it back (`return_s`) from velocity 0.5 up, more
+/// slowly below as a finger lets the key up (the damper's landing law, to 16
+/// times as long). It once left them in 2 ms whatever the release, faster than
+/// they can throw it: the bridge's static load came off as a step, which rang
+/// the body's lowest modes louder than the dying note (a boom on every
+/// release, -26 dBFS after a C4 at -39).
+fn tangent_lift_s(return_s: f64, velocity: f64) -> f64 {
+    let slower = if velocity > 0.0 { (0.5 / velocity).powi(2).clamp(1.0, 16.0) } else { 1.0 };
+    return_s * slower
+}
 /// A hammer that has left the strings this far, moving away, this long after
 /// the strike, will not come back: the strings go free (the fast path). Chosen
 /// above a mallet's repeated bounces (a few ms) and a string's swing (below 0.5 mm).
@@ -978,11 +988,12 @@ impl Key {
         if self.held == 0 && !self.sostenuto && self.damper.target(false, sustain) >= 0.5 {
             self.land_damper(note, velocity);
         }
-        let Some(ExciterDesign::Tangent { .. }) = self.notes.get(note).map(|n| n.exciter) else { return };
+        let Some(ExciterDesign::Tangent { return_s, .. }) = self.notes.get(note).map(|n| n.exciter) else { return };
         if self.held == 0 {
             let struck = self.notes[note].struck.clone();
+            let lift_s = tangent_lift_s(return_s, velocity);
             for s in &mut self.strings[struck] {
-                s.lift_tangent(TANGENT_LIFT_S);
+                s.lift_tangent(lift_s);
             }
         } else if note == self.speaking {
             // A lower tangent still down takes over the string (its pitch follows at
@@ -1070,7 +1081,7 @@ impl Key {
     fn pitch(&self, bend: f64) -> f64 {
         let note = &self.notes[self.speaking];
         let stretch = match note.exciter {
-            ExciterDesign::Tangent { stretch_per_m2, displacement_m } => {
+            ExciterDesign::Tangent { stretch_per_m2, displacement_m, .. } => {
                 let mut w = self.strings[note.struck.start].tangent_position_m();
                 if self.pressure_now > 0.0 && stretch_per_m2 > 0.0 {
                     let s = stretch_per_m2;

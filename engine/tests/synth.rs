@@ -932,3 +932,32 @@ fn a_hand_held_mallet_meets_the_strings_anew_at_each_stroke() {
     assert!(santoor > 100.0 * level_santoor, "the santoor's strokes were alike");
     assert!(piano < 10.0 * level_piano.max(1e-7), "the piano's uneven hammer changed between strokes");
 }
+
+#[test]
+fn a_clavichord_key_let_go_leaves_its_strings_no_faster_than_they_can_throw_its_tangent() {
+    // The tangent holds the strings aside, and through them loads the bridge;
+    // let go, it falls back as fast as their push moves its mass (some
+    // milliseconds), more slowly as a finger lets the key up slowly. The
+    // load comes off that smoothly, so the body's lowest modes are not rung
+    // as by a step: C4 (velocity 0.8, let go after 1 s, heard through the
+    // microphones) must not rise over its own dying note when let go, and a
+    // soft release must ring the body less than a hard one. (Left in 2 ms
+    // whatever the release, the 50 ms after it stood 11 dB over the note's
+    // last 50 ms, its peak 21 dB over its level.)
+    let after_release = |velocity: f32| {
+        let settings = struck_engine::synth::default_settings(InstrumentKind::Clavichord, FS);
+        let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+        let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.8 }), (1.0, Event::NoteOff { key: 60, velocity })];
+        let out = render(&mut s, 1.6, &events, 256);
+        let peak = window(&out, 1.0, 1.5).iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+        let db = |x: f64, y: f64| 20.0 * (x / y).log10();
+        let before = rms(window(&out, 0.95, 1.0));
+        (db(rms(window(&out, 1.0, 1.05)), before), db(peak, before))
+    };
+    let (middling, soft, hard) = (after_release(0.5), after_release(0.05), after_release(1.0));
+    eprintln!(
+        "C4 let go, re its last 50 ms: (first 50 ms, peak) {middling:.1?} dB middling, {soft:.1?} soft, {hard:.1?} hard"
+    );
+    assert!(middling.0 < 3.0 && hard.0 < 3.0, "{middling:?} {hard:?}");
+    assert!(soft.1 < middling.1 - 3.0, "{soft:?} against {middling:?}");
+}

@@ -189,11 +189,39 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         design.shared.push(SharedKey {
             midi_key: upper,
             struck: design.struck.clone(),
-            exciter: ExciterDesign::Tangent { displacement_m: d_up, stretch_per_m2: s_up },
+            exciter: ExciterDesign::Tangent {
+                displacement_m: d_up,
+                stretch_per_m2: s_up,
+                return_s: return_s(LENGTH_M.log_extended(upper), design.strings.len(), tension_of(midi_key)),
+            },
             pitch_ratio: interval * pressed_low / pressed_up,
         });
     }
     Some(design)
+}
+
+/// The tension of each of `midi_key`'s strings, N (flexible, tuned to its key).
+fn tension_of(midi_key: u8) -> f64 {
+    let length_m = LENGTH_M.log_extended(midi_key);
+    flexible_tension_n(
+        length_m,
+        wire_mass_per_length_kg_m(gauge_m(midi_key), BRASS_DENSITY_KG_M3),
+        key_frequency_hz(midi_key),
+    )
+}
+
+/// How fast a tangent let go falls back from its strings, s: the time constant
+/// sqrt(M / k) of the tangent and key (the leak's mass M, [`LOSSES`]) on the
+/// spring of `strings` strings of tension `tension_n` held aside at the end of
+/// a speaking length `length_m`, k = N T (1 / L + 1 / (L_whole - L)) (both
+/// sides of the tangent pulled straight). About 10 ms at C4: a key let go at
+/// once still leaves its strings over some milliseconds, and the bridge's
+/// static load comes off as smoothly.
+fn return_s(length_m: f64, strings: usize, tension_n: f64) -> f64 {
+    let mass_kg = LOSSES.tangent.map_or(0.0, |t| t.mass_kg);
+    let listed_m = (COMPLETE_LENGTH_M - length_m).max(0.05 * COMPLETE_LENGTH_M);
+    let stiffness_n_m = strings as f64 * tension_n * (1.0 / length_m + 1.0 / listed_m);
+    (mass_kg / stiffness_n_m).sqrt()
 }
 
 /// The tangent of `midi_key` with the voicing's depth: where it comes to rest, m,
@@ -229,7 +257,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
     let (displacement_m, stretch) = tangent_of(voicing, midi_key);
     let f1_hz = key_frequency_hz(midi_key);
     let mu = wire_mass_per_length_kg_m(diameter_m, BRASS_DENSITY_KG_M3);
-    let tension_n = flexible_tension_n(length_m, mu, f1_hz);
+    let tension_n = tension_of(midi_key);
     // The tangent's step to V0 reaches the bridge as a wave of force Z0 V0, doubled
     // by the reflection there, and the string's final tilt adds T D / L. The
     // tangent's quick deceleration and the string's dispersion smear that step:
@@ -246,7 +274,11 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
-        exciter: ExciterDesign::Tangent { displacement_m, stretch_per_m2: stretch },
+        exciter: ExciterDesign::Tangent {
+            displacement_m,
+            stretch_per_m2: stretch,
+            return_s: return_s(length_m, STRINGS, tension_n),
+        },
         damper: Some(damper(damped_60_db_s, DAMPER_RATE_PER_HZ_S, f1_hz, DAMPER_TRAVEL_S)),
         gain_per_n: LEVEL.gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n, pan(midi_key, KEYS)),
         ring_gain_per_n: LEVEL.ring_gain_per_n(midi_key, STRINGS as f64 * peak_per_string_n),
@@ -280,8 +312,8 @@ mod tests {
             // Pressed, each tangent sounds its own key: the semitone over the strings at
             // rest is the lower press's rise more, the upper press's less.
             let (
-                ExciterDesign::Tangent { displacement_m: d0, stretch_per_m2: s0 },
-                ExciterDesign::Tangent { displacement_m: d1, stretch_per_m2: s1 },
+                ExciterDesign::Tangent { displacement_m: d0, stretch_per_m2: s0, .. },
+                ExciterDesign::Tangent { displacement_m: d1, stretch_per_m2: s1, .. },
             ) = (d.exciter, upper.exciter)
             else {
                 panic!("not tangents")
@@ -297,8 +329,27 @@ mod tests {
     }
 
     fn tangent(d: &KeyDesign) -> (f64, f64) {
-        let ExciterDesign::Tangent { displacement_m, stretch_per_m2 } = d.exciter else { panic!("not a tangent") };
+        let ExciterDesign::Tangent { displacement_m, stretch_per_m2, .. } = d.exciter else { panic!("not a tangent") };
         (displacement_m, stretch_per_m2)
+    }
+
+    #[test]
+    fn a_tangent_let_go_falls_back_in_milliseconds_faster_where_the_strings_are_short() {
+        let back = |d: &ExciterDesign| match *d {
+            ExciterDesign::Tangent { return_s, .. } => return_s,
+            _ => panic!("not a tangent"),
+        };
+        let at = |key: u8| back(&course(&Voicing::default(), key, 20_000.0).exciter);
+        // C4: two 0.5 m strings of about 56 N held aside, 0.7 m of felted length
+        // beyond: k = 2 T (1/0.5 + 1/0.7), under 40 g.
+        let c4 = at(60);
+        let k = 2.0 * tension_of(60) * (1.0 / 0.5 + 1.0 / 0.7);
+        assert!((c4 - (0.04 / k).sqrt()).abs() < 1e-12 && (0.005..0.02).contains(&c4), "{c4}");
+        assert!(at(84) < c4 && at(38) > 0.001, "{} {}", at(84), at(38));
+        // A fretted pair's upper tangent meets the strings nearer the bridge.
+        let fretted = Voicing { fretted: true, ..Voicing::default() };
+        let d = design(&fretted, 60, 20_000.0).unwrap();
+        assert!(back(&d.shared[0].exciter) < back(&d.exciter));
     }
 
     #[test]

@@ -434,7 +434,7 @@ mod tests {
                         assert!(f1 < max_frequency_hz);
                         // A clavichord is tuned with its keys down: the press's stretch brings it up to pitch.
                         let pressed = match d.exciter {
-                            ExciterDesign::Tangent { displacement_m, stretch_per_m2 } => {
+                            ExciterDesign::Tangent { displacement_m, stretch_per_m2, .. } => {
                                 crate::exciter::tangent::stretched_pitch_ratio(stretch_per_m2, displacement_m)
                             }
                             _ => 1.0,

@@ -265,7 +265,10 @@ pub enum ExciterDesign {
     /// A clavichord tangent pressing the far end of the strings by `displacement_m`.
     /// Pressing by W stretches the string: its tension rises by the factor
     /// 1 + `stretch_per_m2` W^2 (speaking and non-speaking lengths both stretched).
-    Tangent { displacement_m: f64, stretch_per_m2: f64 },
+    /// Let go, it falls back from the strings with the time constant `return_s`
+    /// (their push against the tangent's and key's mass), or more slowly when
+    /// the key is let up slowly.
+    Tangent { displacement_m: f64, stretch_per_m2: f64, return_s: f64 },
     /// A harpsichord plectrum releasing the string at `position`.
     Pluck { position: f64 },
 }

@@ -17,6 +17,13 @@ fn text(path: &Path) -> String {
     path.to_str().unwrap().to_string()
 }
 
+/// The valid santoor case written as `case.json` in `dir`.
+fn santoor_case(dir: &Path) -> PathBuf {
+    let case = dir.join("case.json");
+    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    case
+}
+
 /// Refused: status 2 and one line on stderr that contains `words`.
 fn refused(out: &Output, words: &str) {
     let message = stderr(out);
@@ -56,8 +63,7 @@ fn a_file_larger_than_its_kind_may_be_is_refused_while_reading() {
 #[test]
 fn no_output_may_be_one_of_the_inputs_however_it_is_named() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let out = dir.path().join("out");
     // --wav naming the case; the case inside --out as metrics.json; --wav naming metrics.json.
     refused(&struck(&["strike", &text(&case), "--out", &text(&out), "--wav", &text(&case)]), "one of the inputs");
@@ -86,8 +92,7 @@ fn no_output_may_be_one_of_the_inputs_however_it_is_named() {
 #[test]
 fn a_device_or_folder_is_never_replaced_and_folders_made_for_a_failure_go() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     refused(&struck(&["render", &text(&midi("a4.mid")), "--out", "/dev/null"]), "is not a regular file");
     assert!(!Path::new("/dev/null").metadata().unwrap().file_type().is_file());
     let deep = dir.path().join("new").join("deeper");
@@ -105,8 +110,7 @@ fn a_device_or_folder_is_never_replaced_and_folders_made_for_a_failure_go() {
 #[test]
 fn physics_out_of_range_is_refused_naming_the_field() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let out = text(&dir.path().join("o"));
     refused(&struck(&["strike", &text(&case), "--out", &out, "--set", "exciter.stiffness=1e22"]), "exciter.stiffness");
     refused(
@@ -151,8 +155,7 @@ fn a_long_legal_output_name_is_written() {
 #[test]
 fn a_stop_signal_during_a_strike_leaves_nothing_behind() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let out = dir.path().join("out").join("deeper");
     let child = std::process::Command::new(struck_tests::struck_binary())
         .args([
@@ -181,8 +184,7 @@ fn a_stop_signal_during_a_strike_leaves_nothing_behind() {
 #[test]
 fn a_strike_chart_takes_a_bounded_number_of_strikes() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let speeds = vec!["1"; 100].join(",");
     let out = text(&dir.path().join("new").join("deeper").join("charts"));
     refused(&struck(&["chart", "strike", &text(&case), "--out", &out, "--speeds", &speeds]), "at most 64");
@@ -246,8 +248,7 @@ fn an_argument_that_is_not_text_is_refused_in_one_line() {
 #[test]
 fn an_output_named_by_a_link_is_written_through_it() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let target = dir.path().join("target.wav");
     std::fs::write(&target, b"old").unwrap();
     let link = dir.path().join("link.wav");
@@ -307,8 +308,7 @@ fn a_key_given_twice_in_a_file_is_refused() {
 #[test]
 fn flags_that_cannot_mean_anything_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let case = dir.path().join("case.json");
-    std::fs::write(&case, SANTOOR_CASE).unwrap();
+    let case = santoor_case(dir.path());
     let out = text(&dir.path().join("o"));
     refused(&struck(&["strike", &text(&case), "--out", &out, "--wav-gain-db", "0"]), "--wav");
     let wav = text(&dir.path().join("w.wav"));

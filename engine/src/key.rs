@@ -131,6 +131,13 @@ const DRIVEN_BLOCKS: usize = SYMPATHY_BLOCKS + 1;
 /// products are masked).
 const LAST_PHANTOM_KEY: u8 = 60;
 
+/// The phantom products fade in over this long when they start, s. They wait
+/// for a strike to end (while the hammer plays the strings their loudest is
+/// not known), so they start at the level the strings' motion gives them
+/// then: at once, a step in the bridge force (A0 at velocity 127: 0.02 of
+/// full scale in one sample, 35 ms in).
+const PHANTOM_FADE_S: f64 = 0.005;
+
 /// The phantom products are set again from the strings at least this often,
 /// control blocks (to drop those that have faded under the floor).
 const PHANTOM_REFRESH_BLOCKS: usize = 16;
@@ -238,6 +245,11 @@ pub(crate) struct Key {
     phantom_level: f64,
     /// The level the products in play were set at.
     phantom_set: f64,
+    /// The products fading in since they started (run apart from the
+    /// gathering meanwhile), samples of the fade done, and its length.
+    phantom_fading: bool,
+    phantom_faded: usize,
+    phantom_fade_len: usize,
     /// The action's sounds: whether the key stops on a bed (a keyboard's
     /// hammer key), the bed's pulse in play (samples since the key bottomed,
     /// hammer speed), and their levels (key bed, damper landing, dampers
@@ -463,6 +475,9 @@ impl Key {
             phantom_age: 0,
             phantom_level: 1.0,
             phantom_set: 1.0,
+            phantom_fading: false,
+            phantom_faded: 0,
+            phantom_fade_len: 1,
             key_bed,
             on_body,
             bed_pulse: None,
@@ -1161,11 +1176,23 @@ impl Key {
             // (Read from the strings, and set anew: back from the gathering.)
             self.settle();
         }
+        if self.phantom_fading && self.phantom_faded >= self.phantom_fade_len {
+            // Faded in: gathered with the strings again from the next stretch.
+            self.settle();
+            self.phantom_fading = false;
+        }
         if let Some(p) = &mut self.phantom
             && refresh
         {
             let floor = floor_n.max(crate::phantom::BELOW_LOUDEST * loudest_n);
+            let was_on = self.phantom_on;
             self.phantom_on = p.start_block(&self.strings, self.phantom_level, floor);
+            if self.phantom_on && !was_on {
+                let fs = self.strings.first().map_or(0.0, StruckString::sample_rate_hz);
+                self.phantom_fading = true;
+                self.phantom_faded = 0;
+                self.phantom_fade_len = ((PHANTOM_FADE_S * fs).round() as usize).max(1);
+            }
             self.phantom_stale = !floor.is_finite();
             self.phantom_age = 0;
             self.phantom_set = self.phantom_level;
@@ -1352,7 +1379,7 @@ impl Key {
                 // (With no room, which the room made for it rules out, it runs alone.)
                 *at = free.then(|| s.bank().gather_free(s.audio(), gather).unwrap_or(usize::MAX));
             }
-            self.phantom_at = match (self.phantom_on, self.phantom.as_ref()) {
+            self.phantom_at = match (self.phantom_on && !self.phantom_fading, self.phantom.as_ref()) {
                 (true, Some(p)) => Some(p.gather_free(gather).unwrap_or(usize::MAX)),
                 _ => None,
             };
@@ -1381,16 +1408,30 @@ impl Key {
             p.accumulate(acc);
         }
         add_lane_sums(acc, out);
+        if self.phantom_fading {
+            self.add_phantom(out);
+        }
     }
 
-    /// Add its strings' stretch pulling on the bridge to `out`.
+    /// Add its strings' stretch pulling on the bridge to `out`, faded in
+    /// while it is starting ([`PHANTOM_FADE_S`]).
     fn add_phantom(&mut self, out: &mut [f64]) {
-        if let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) {
-            let acc = &mut self.lanes[..out.len()];
-            acc.fill([0.0; LANES]);
-            p.accumulate(acc);
+        let (true, Some(p)) = (self.phantom_on, self.phantom.as_mut()) else { return };
+        let acc = &mut self.lanes[..out.len()];
+        acc.fill([0.0; LANES]);
+        p.accumulate(acc);
+        if !self.phantom_fading {
             add_lane_sums(acc, out);
+            return;
         }
+        let mut pull = [0.0; CONTROL_BLOCK];
+        let pull = &mut pull[..out.len()];
+        add_lane_sums(acc, pull);
+        let len = self.phantom_fade_len as f64;
+        for (t, (o, v)) in out.iter_mut().zip(pull.iter()).enumerate() {
+            *o += ((self.phantom_faded + t + 1) as f64 / len).min(1.0) * v;
+        }
+        self.phantom_faded += out.len();
     }
 
     /// [`Self::render`] for a course whose strings share a bridge point: each

@@ -35,6 +35,14 @@ pub(crate) struct Damper {
 const LANDING_SHORTEST: f64 = 0.5;
 const LANDING_LONGEST: f64 = 16.0;
 
+/// How much longer than at a middling release (0.5, MIDI's 64) a key let up
+/// at release `velocity` (0..=1; 0: none reported, taken as middling) takes
+/// over what it lets go: (0.5 / velocity)^2, at most [`LANDING_LONGEST`] (the
+/// damper's landing, and the clavichord's tangent leaving its strings).
+pub(crate) fn release_slowness(velocity: f64) -> f64 {
+    if velocity > 0.0 { (0.5 / velocity).powi(2).min(LANDING_LONGEST) } else { 1.0 }
+}
+
 impl Damper {
     pub fn new(design: Option<DamperDesign>) -> Self {
         let landing_s = design.map_or(0.0, |d| d.travel_s);
@@ -46,9 +54,7 @@ impl Damper {
     /// (0.5 / velocity)^2, between half and sixteen times it.
     pub fn land(&mut self, velocity: f64) {
         let Some(d) = self.design else { return };
-        let scale =
-            if velocity > 0.0 { (0.5 / velocity).powi(2).clamp(LANDING_SHORTEST, LANDING_LONGEST) } else { 1.0 };
-        self.landing_s = d.travel_s * scale;
+        self.landing_s = d.travel_s * release_slowness(velocity).max(LANDING_SHORTEST);
     }
 
     /// A strike: the damper leaves the strings before the hammer arrives (unless

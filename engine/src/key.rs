@@ -33,14 +33,13 @@ use crate::CONTROL_BLOCK;
 /// Time constant of a tangent leaving its strings as the key comes up at
 /// release `velocity` (0..=1; 0: not known, as a middling release), s: as
 /// fast as the strings push it back (`return_s`) from velocity 0.5 up, more
-/// slowly below as a finger lets the key up (the damper's landing law, to 16
-/// times as long). It once left them in 2 ms whatever the release, faster than
+/// slowly below as a finger lets the key up (the damper's landing law,
+/// [`crate::damper::release_slowness`]). It once left them in 2 ms whatever the release, faster than
 /// they can throw it: the bridge's static load came off as a step, which rang
 /// the body's lowest modes louder than the dying note (a boom on every
 /// release, -26 dBFS after a C4 at -39).
 fn tangent_lift_s(return_s: f64, velocity: f64) -> f64 {
-    let slower = if velocity > 0.0 { (0.5 / velocity).powi(2).clamp(1.0, 16.0) } else { 1.0 };
-    return_s * slower
+    return_s * crate::damper::release_slowness(velocity).max(1.0)
 }
 /// A hammer that has left the strings this far, moving away, this long after
 /// the strike, will not come back: the strings go free (the fast path). Chosen

@@ -192,7 +192,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
             exciter: ExciterDesign::Tangent {
                 displacement_m: d_up,
                 stretch_per_m2: s_up,
-                return_s: return_s(LENGTH_M.log_extended(upper), design.strings.len(), tension_of(midi_key)),
+                return_s: return_s(LENGTH_M.log_extended(upper), STRINGS, tension_of(midi_key)),
             },
             pitch_ratio: interval * pressed_low / pressed_up,
         });
@@ -214,12 +214,13 @@ fn tension_of(midi_key: u8) -> f64 {
 /// sqrt(M / k) of the tangent and key (the leak's mass M, [`LOSSES`]) on the
 /// spring of `strings` strings of tension `tension_n` held aside at the end of
 /// a speaking length `length_m`, k = N T (1 / L + 1 / (L_whole - L)) (both
-/// sides of the tangent pulled straight). About 10 ms at C4: a key let go at
-/// once still leaves its strings over some milliseconds, and the bridge's
+/// sides of the tangent pulled straight; every speaking length, 0.82 m at
+/// most, lies well inside the whole 1.2 m). About 10 ms at C4: a key let go
+/// at once still leaves its strings over some milliseconds, and the bridge's
 /// static load comes off as smoothly.
 fn return_s(length_m: f64, strings: usize, tension_n: f64) -> f64 {
     let mass_kg = LOSSES.tangent.map_or(0.0, |t| t.mass_kg);
-    let listed_m = (COMPLETE_LENGTH_M - length_m).max(0.05 * COMPLETE_LENGTH_M);
+    let listed_m = COMPLETE_LENGTH_M - length_m;
     let stiffness_n_m = strings as f64 * tension_n * (1.0 / length_m + 1.0 / listed_m);
     (mass_kg / stiffness_n_m).sqrt()
 }

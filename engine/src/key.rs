@@ -735,7 +735,7 @@ impl Key {
     /// Whether moving a partial of its strings by `delta` (N) would wake it
     /// silent (more than [`WAKE_OVER_SILENCE`] times `silence`, full scale).
     pub fn would_wake(&self, delta: Complex64, silence: f64) -> bool {
-        (delta.re.abs() + delta.im.abs()) * self.gain_per_n >= WAKE_OVER_SILENCE * silence
+        wakes(delta * self.gain_per_n, silence)
     }
 
     /// Start sounding from rest without a stroke (its strings set ringing by
@@ -1512,6 +1512,12 @@ impl Key {
         self.set_poles(pitch);
         old.silence();
     }
+}
+
+/// Whether moving a silent key's partial by `delta` (full scale: at its
+/// output gain) wakes it: more than [`WAKE_OVER_SILENCE`] times `silence`.
+pub(crate) fn wakes(delta: Complex64, silence: f64) -> bool {
+    delta.re.abs() + delta.im.abs() >= WAKE_OVER_SILENCE * silence
 }
 
 /// A regulation's gain at touch `value` (see [`Key::regulate`]): interpolated

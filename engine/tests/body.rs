@@ -110,31 +110,47 @@ fn the_treble_rings_within_12_db_of_a4_and_its_strike_stays_within_30_db_of_its_
 }
 
 #[test]
-fn neighbouring_keys_ring_alike() {
-    // No key of the piano stands out from the keys beside it at velocity 80:
+fn neighbouring_keys_ring_alike_at_every_touch() {
+    // No key of the piano stands out from the keys beside it, soft or loud:
     // within 5 dB of the mean of its two neighbours (the knock-limited top
-    // octave included). Keys are voiced at the level scale's touch (velocity
-    // 89), and evened out touch by touch where one rings over its neighbours
-    // (a treble key's ring leaps by 6 to 13 dB over one step of 8 in velocity
-    // where its felt stiffens past the point its contact is short enough to
-    // sound the fundamental, and B7 leaps at a softer touch than its
-    // neighbours).
+    // octave included). Keys are voiced at the level scale's touch (1.96
+    // m/s), and evened out touch by touch where one rings over or under its
+    // neighbours: a treble key's ring leaps by 6 to 13 dB over one step of 8
+    // in velocity where its felt stiffens past the point its contact is short
+    // enough to sound the fundamental, B7 leaps at a softer touch than its
+    // neighbours, and A#6 and B6 set the undamped octave above them ringing
+    // (their second partials on its strings' first), 5-7 dB of their ring
+    // from about 1 m/s up, nothing at the softest touches (voiced with it,
+    // they were holes there before the evening raised them). Before the
+    // voicing weighed what rings with a key and evened up as well as down, B6
+    // stood 5.2-5.7 dB over its neighbours from 2 m/s on (velocity 90 up) and
+    // F6 6-7 dB under them below 1.2 m/s (velocity 70).
     let mut s = synth(InstrumentKind::Piano, Output::Microphones);
-    let rings: Vec<(u8, f64)> = (21..=108)
-        .map(|key| {
-            let (l, r) = note(&mut s, key, 80.0 / 127.0, 0.3);
-            (key, ring_db(&l, &r))
-        })
-        .collect();
-    let mut worst = (0u8, 0.0f64);
-    for w in rings.windows(3) {
-        let off = w[1].1 - 0.5 * (w[0].1 + w[2].1);
-        if off.abs() > worst.1.abs() {
-            worst = (w[1].0, off);
+    for velocity in [40u8, 64, 80, 100, 120] {
+        let rings: Vec<(u8, f64)> = (21..=108)
+            .map(|key| {
+                let (l, r) = note(&mut s, key, f32::from(velocity) / 127.0, 0.3);
+                (key, ring_db(&l, &r))
+            })
+            .collect();
+        let mut worst = (0u8, 0.0f64);
+        for w in rings.windows(3) {
+            let off = w[1].1 - 0.5 * (w[0].1 + w[2].1);
+            if off.abs() > worst.1.abs() {
+                worst = (w[1].0, off);
+            }
         }
+        println!(
+            "piano at velocity {velocity}: the key furthest from its neighbours is {} at {:+.1} dB",
+            worst.0, worst.1
+        );
+        assert!(
+            worst.1.abs() <= 5.0,
+            "velocity {velocity}: key {} rings {:+.1} dB off its neighbours",
+            worst.0,
+            worst.1
+        );
     }
-    println!("piano: the key furthest from its neighbours is {} at {:+.1} dB", worst.0, worst.1);
-    assert!(worst.1.abs() <= 5.0, "key {} rings {:+.1} dB off its neighbours", worst.0, worst.1);
 }
 
 /// The amplitude (dB) of the strongest component within `band_hz` of `x`

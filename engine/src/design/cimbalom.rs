@@ -56,7 +56,7 @@ use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 
 /// Beater speeds from a soft touch to a hard stroke, m/s (the santoor's range).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 
@@ -102,7 +102,7 @@ const DAMPER_TRAVEL_S: f64 = 0.03;
 const UNISON_SPREAD_CENTS: f64 = 2.0;
 
 /// Output level (see [`Level`]), measured with the pedal down (the damper bar
-/// lifted): the ringing at velocity 0.7 is aimed at -26 dBFS, the santoor's.
+/// lifted): the ringing at the level touch (velocity 0.7) is aimed at -26 dBFS, the santoor's.
 ///
 /// Relative to the peak, the ringing is -22 dB at C2, -20 dB from E3 to C4 and -22
 /// dB at A4, then falls as the beater outweighs the shorter strings: -25 dB at

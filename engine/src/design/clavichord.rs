@@ -57,7 +57,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 /// 1 - exp(-t V0 / D), so 0.1 m/s (the quiet note of the comparison in
 /// `engine/tests/seed_clavichord.rs`) is 92 % of the way after 50 ms, and 1 m/s
 /// is as far after 5 ms.
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 1.0;
 
@@ -105,7 +105,7 @@ const DAMPER_RATE_PER_HZ_S: f64 = 1.0e-2;
 const DAMPER_TRAVEL_S: f64 = 0.002;
 
 /// Output level (see [`Level`]). The clavichord is the quietest of the four: its
-/// ringing at velocity 0.7 is aimed at -30 dBFS, 2 to 6 dB under the others'.
+/// ringing at the level touch (velocity 0.7) is aimed at -30 dBFS, 2 to 6 dB under the others'.
 ///
 /// Relative to the peak, the ringing lies near -18 dB from C2 to A2 and falls to
 /// -25.9 dB at E6 (within 0.3 dB of every key); the peak runs 0.1 dB (bass) to

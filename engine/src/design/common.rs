@@ -225,7 +225,7 @@ pub(super) const PEAK_CEILING_DBFS: f64 = -1.5;
 ///
 /// The player hears the ringing tone, so that is what is made even: every key is
 /// given the gain that puts the RMS of its output from 50 to 300 ms after a note-on
-/// at velocity 0.7 (default controls, one key alone, a damper that only the pedal
+/// at the range's level touch ([`super::TouchRange::level_touch`]; one key alone, a damper that only the pedal
 /// lifts held off by it) at `ring_target_dbfs`. That
 /// gain is the physical scaling 1 / `peak_n` (the instrument's own estimate of the
 /// loudest touch's peak bridge force, N) times a smooth correction: `ring_db` is
@@ -541,7 +541,8 @@ mod tests {
                 // player hears the ringing tone with the pedal down.
                 let (d, course_keys) = course(kind, key);
                 let pedal = d.damper.is_some_and(|d| d.pedal_only);
-                let (ringing, _) = ringing_and_peak_dbfs(&mut synth, key, 0.7, pedal);
+                let (ringing, _) =
+                    ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity() as f32, pedal);
                 let (_, peak) = ringing_and_peak_dbfs(&mut synth, key, 1.0, pedal);
                 let capped = level.capped(&course_keys, d.pan);
                 let what =

@@ -56,7 +56,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 50..=86;
 
 /// Hammer speeds from a soft touch to a hard stroke, m/s (the santoor's: the same
 /// light hammers and wrist strokes).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 
@@ -98,7 +98,7 @@ const BRIDGE_COUPLING_S_KG: f64 = LOSSES.bridge_admittance_s_kg;
 /// unison; the chorus is part of its sound).
 const UNISON_SPREAD_CENTS: f64 = 3.0;
 
-/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -26 dBFS,
+/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -26 dBFS,
 /// the santoor's. A course played from both sides (C#5-G5 with G#5-D6) has one
 /// gain: the mean of the two sides' (each then misses the target by half their
 /// difference), capped where either side's loudest touch would peak above the

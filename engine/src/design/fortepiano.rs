@@ -44,7 +44,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 29..=91;
 
 /// Hammer speeds from pianissimo to fortissimo, m/s (assumed: a Viennese key
 /// falls about 6 mm, against a modern key's 10, and is far lighter).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 
@@ -55,7 +55,7 @@ const BRASS_LOSSES: Losses =
 const IRON_LOSSES: Losses =
     Losses { internal_loss_factor: 3.0e-4, bridge_admittance_s_kg: BRIDGE_ADMITTANCE_S_KG, tangent: None };
 
-/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -28 dBFS,
+/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -28 dBFS,
 /// as the piano's. Relative to the loudest touch's peak it is flat near -22.5 dB
 /// from F1 to C4 (the peak 22.5 dB above, 10 dB of it the touch: velocity 1
 /// strikes 3 times as fast), then falls away as the strings grow light against

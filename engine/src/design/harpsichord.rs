@@ -88,7 +88,7 @@ const TARGET_DIAMETER_M: Table = Table(&[(36, 0.52e-3), (86, 0.20e-3)]);
 pub(super) const LOSSES: Losses =
     Losses { internal_loss_factor: 5.0e-4, bridge_admittance_s_kg: 5.0e-3, tangent: None };
 
-/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -24 dBFS.
+/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -24 dBFS.
 ///
 /// Relative to the peak, the ringing rises from -14.7 dB at C2 to -9.2 dB at c''
 /// and eases to -10.1 dB at d''' (within 0.2 dB of every key); the peak runs up to

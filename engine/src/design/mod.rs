@@ -152,15 +152,44 @@ impl Touch {
 
 /// The softest and hardest touch velocity maps onto (velocity 1 and 127 at the
 /// default curve), in the unit the instrument's exciter is played in.
+///
+/// At the default controls a velocity v (0..=1) plays min (max / min)^(v^curve):
+/// even steps in the log of the speed (or lift) for `curve` 1, the middle
+/// velocities raised toward the hard end for a `curve` under 1 (the player's own
+/// curve, `Controls::touch_shape`, multiplies it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TouchRange {
     /// Exciter speeds, m/s.
-    Speed { min_m_s: f64, max_m_s: f64 },
-    /// Plectrum lifts, mm.
+    Speed { min_m_s: f64, max_m_s: f64, curve: f64 },
+    /// Plectrum lifts, mm (an even log scale).
     PluckHeight { min_mm: f64, max_mm: f64 },
 }
 
+/// Where an instrument's level scale is measured: this share of the way up its
+/// touch range, on the range's log scale (the touch the default controls played
+/// at velocity 0.7 while every range was an even log scale).
+pub const LEVEL_SHARE: f64 = 0.7;
+
 impl TouchRange {
+    /// The exponent velocity is raised to before it is spread over the range.
+    pub fn curve(self) -> f64 {
+        match self {
+            TouchRange::Speed { curve, .. } => curve,
+            TouchRange::PluckHeight { .. } => 1.0,
+        }
+    }
+
+    /// The touch each key's ringing is evened at ([`LEVEL_SHARE`] of the way up).
+    pub fn level_touch(self) -> Touch {
+        let (min, max) = self.bounds();
+        self.with(min * (max / min).powf(LEVEL_SHARE))
+    }
+
+    /// The velocity (0..=1) that plays [`Self::level_touch`] at the default controls.
+    pub fn level_velocity(self) -> f64 {
+        LEVEL_SHARE.powf(1.0 / self.curve())
+    }
+
     /// The softest touch.
     pub fn min(self) -> Touch {
         self.with(self.bounds().0)
@@ -174,7 +203,7 @@ impl TouchRange {
     /// Softest and hardest as bare numbers in the range's unit.
     pub fn bounds(self) -> (f64, f64) {
         match self {
-            TouchRange::Speed { min_m_s, max_m_s } => (min_m_s, max_m_s),
+            TouchRange::Speed { min_m_s, max_m_s, .. } => (min_m_s, max_m_s),
             TouchRange::PluckHeight { min_mm, max_mm } => (min_mm, max_mm),
         }
     }

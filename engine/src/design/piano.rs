@@ -27,7 +27,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
 /// Hammer speeds from pianissimo to fortissimo (Boutillon 1988 measured 0.11 to
 /// 6.83 m/s), m/s.
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S };
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 7.0;
 
@@ -41,7 +41,7 @@ const LAST_DAMPED_KEY: u8 = 90;
 /// 1 s at C8.
 const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_s_kg: 5.0e-4, tangent: None };
 
-/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -28 dBFS.
+/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -28 dBFS.
 /// The loudest touch peaks some 24 dB above that ringing in the middle (11 dB of
 /// it the touch: velocity 1 strikes 3.6 times as fast), so the middle could ring
 /// at -25 dBFS at most; the bass, panned left, peaks 2 to 2.6 dB higher in that

@@ -30,7 +30,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 52..=89;
 
 /// Mallet speeds from a soft touch to a hard stroke, m/s (Woodhouse's examples
 /// use 1 m/s; a wrist stroke with a light mallet reaches a few m/s).
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S };
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 
@@ -55,7 +55,7 @@ const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_
 /// Widest detuning in a course, cents.
 const UNISON_SPREAD_CENTS: f64 = 2.0;
 
-/// Output level (see [`Level`]). The ringing at velocity 0.7 is aimed at -26 dBFS.
+/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -26 dBFS.
 /// Up to A4 the loudest touch peaks 22 to 23 dB above that ringing, so the middle
 /// could ring some 1.5 dB louder before meeting the peak ceiling, but the capped
 /// treble would then fall out of 3 dB of it three keys sooner.

@@ -12,7 +12,9 @@ use crate::body::boards::{BodyDesign, MAX_ZONES, ZoneShare};
 use crate::body::load::trade;
 use crate::body::soundboard::{HeardModes, Soundboard};
 use crate::design::{Touch, TouchRange};
-use crate::key::{Key, TRADE_BLOCKS, regulated};
+use crate::key::{Key, SYMPATHY_BLOCKS, TRADE_BLOCKS, regulated, wakes};
+use crate::synth::SILENCE;
+use crate::synth::sympathy::Sympathy;
 
 /// How loud a key's partials come through the body, Pa/N: the pressure per
 /// newton where the key bears on the bridge, power-averaged over both
@@ -74,18 +76,25 @@ fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: 
     if key.stays_on_strings() {
         return ring_played_through_body(key, touch, body, gain, force);
     }
-    let Body { heard_modes, shapes, share, soundboard } = body;
+    let Body { heard_modes, shapes, share, soundboard, partners } = body;
     let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
     let strings = key.probe(touch, force);
     let (free_mics, bridge) = free_ring(strings.iter().flatten().copied().collect(), heard_modes, shapes, gain);
     // A unison whose strings trade through the body rings less in the window
     // (its prompt sound is N times as fast): what it is voiced against stays
     // the ring its strings would have on their own, so that the level scale
-    // holds however strongly the body couples them.
-    let mut mics = if key.unison().is_empty() {
+    // holds however strongly the body couples them. What the key sets ringing
+    // in the strings that ring free beside it is heard with it.
+    let ring = Ring { heard_modes, shapes, partners, step_s: soundboard.step_s(), gain };
+    let mut mics = if !key.unison().is_empty() {
+        ring.traded(&strings, key.unison(), &|_| true)
+    } else if partners.is_empty() {
         free_mics
     } else {
-        unison_ring(&strings, key.unison(), soundboard.step_s(), heard_modes, shapes, gain).0
+        let trades = |i: usize| partners.iter().any(|p| p.partial == i);
+        let alone: Vec<(Complex64, Complex64)> =
+            strings.iter().flat_map(|s| s.iter().enumerate().filter(|&(i, _)| !trades(i)).map(|(_, &p)| p)).collect();
+        free_ring(alone, heard_modes, shapes, gain).0 + ring.traded(&strings, &[], &trades)
     };
     run_board(soundboard, share, force, gain / soundboard.gain());
     mics += soundboard.ring_power(from, to);
@@ -129,48 +138,191 @@ fn free_ring(
     (mics, bridge)
 }
 
-/// The ring's mean power (microphones, bridge force) of a unison whose
-/// strings trade energy through the body (`unison`, per [`TRADE_BLOCKS`]
-/// control blocks of samples `step_s` long): each partial's strings are
-/// followed trade by trade over the ring's window, each turning by its own
-/// pole and then trading, so the prompt sound, the aftersound and their
-/// beating are all in what is weighed.
-fn unison_ring(
-    strings: &[Vec<(Complex64, Complex64)>],
-    unison: &[(Complex64, Complex64)],
+/// A partial of another key that rings free when this key is struck alone (it
+/// has no damper, or none down with the pedal up), trading with one of this
+/// key's partials through the body ([`Sympathy::pairs_of`]): a technician
+/// voicing the key by ear hears it ring too.
+pub(super) struct Partner<'a> {
+    /// This key's partial, and its strings (bit i: string i) that trade.
+    partial: usize,
+    strings: u8,
+    /// How many of the other key's strings sound its partial, that partial's
+    /// pole (s^-1), what a unison trade's interval keeps of their sum in step
+    /// (its strings move alike), and the body's modes' shapes where it bears.
+    count: f64,
+    lambda: Complex64,
+    in_step: Complex64,
+    shapes: &'a [f64],
+    /// What one sympathetic interval adds to each of this key's strings per
+    /// unit of the other's sum, and to each of the other's per unit of this
+    /// key's (in this key's units: heard as the physics has it).
+    into_mine: Complex64,
+    into_theirs: Complex64,
+}
+
+/// Every partner of `midi_key`'s partials among `keys` ([`Partner`]), the
+/// body's shapes where each key bears given by `shapes` (by MIDI key).
+/// Allocates; when an instrument is built.
+pub(super) fn partners<'a>(
+    sympathy: &Sympathy,
+    keys: &[Option<Key>],
+    midi_key: u8,
+    shapes: &'a [Vec<f64>],
+) -> Vec<Partner<'a>> {
+    sympathy
+        .pairs_of(midi_key)
+        .into_iter()
+        .filter_map(|pair| {
+            let other = keys.get(pair.other as usize)?.as_ref()?;
+            if !other.rings_free(0.0) {
+                return None;
+            }
+            let in_step = other.unison().get(pair.other_partial).map_or(Complex64::new(1.0, 0.0), |u| u.1);
+            Some(Partner {
+                partial: pair.partial,
+                strings: pair.strings,
+                count: f64::from(pair.other_strings.count_ones()),
+                lambda: pair.other_pole,
+                in_step,
+                shapes: shapes.get(pair.other as usize)?,
+                into_mine: pair.into_mine,
+                into_theirs: pair.into_theirs,
+            })
+        })
+        .collect()
+}
+
+/// How the microphones weigh what a key's strings ring with: the body's
+/// modes and their shapes where the key bears, the free strings it sets
+/// ringing, a control block's length (s) and the gain the key is heard at.
+struct Ring<'a> {
+    heard_modes: &'a HeardModes,
+    shapes: &'a [f64],
+    partners: &'a [Partner<'a>],
     step_s: f64,
-    heard_modes: &HeardModes,
-    shapes: &[f64],
     gain: f64,
-) -> (f64, f64) {
-    let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
-    let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
-    let partials = strings.iter().map(Vec::len).min().unwrap_or(0).min(unison.len());
-    // The strongest PROBE_PARTIALS partials by their strings' own ring.
-    let alone =
-        |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
-    let mut order: Vec<usize> = (0..partials).filter(|&i| strings.iter().all(|s| s[i].1.im > 0.0)).collect();
-    order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
-    order.truncate(PROBE_PARTIALS);
-    let (first, last) = ((from / h).ceil() as usize, (to / h).floor() as usize);
-    let blocks = (last + 1).saturating_sub(first).max(1) as f64;
-    let (mut bridge, mut mics) = (0.0, 0.0);
-    for i in order {
-        let turn: Vec<Complex64> = strings.iter().map(|s| (s[i].1 * h).exp()).collect();
-        let mut zeta: Vec<Complex64> = strings.iter().map(|s| s[i].0).collect();
-        let [l, r] = heard_modes.transfer_shaped_pa_per_n(shapes, strings[0][i].1.im / (2.0 * PI));
-        let heard = 0.5 * (l.norm_sqr() + r.norm_sqr()) * gain * gain;
-        for block in 1..=last {
-            zeta.iter_mut().zip(&turn).for_each(|(z, t)| *z *= t);
-            trade(unison[i], &mut zeta);
-            if block >= first {
-                let force = zeta.iter().sum::<Complex64>().norm_sqr() / 2.0;
-                bridge += force / blocks;
-                mics += force * heard / blocks;
+}
+
+/// Sympathetic intervals in a unison trade's.
+const SYMPATHY_STEPS: usize = TRADE_BLOCKS / SYMPATHY_BLOCKS;
+const _: () = assert!(SYMPATHY_STEPS * SYMPATHY_BLOCKS == TRADE_BLOCKS);
+
+impl Ring<'_> {
+    /// The ring's mean power through the microphones of the `chosen` partials
+    /// of `strings`, followed interval by interval over the ring's window: a
+    /// unison's strings (`unison`, per [`TRADE_BLOCKS`] control blocks; none
+    /// for a single string) each turning by its own pole and then trading, so
+    /// the prompt sound, the aftersound and their beating are all in what is
+    /// weighed; and a partial's free partners, set ringing from the strike on
+    /// and trading with it every [`SYMPATHY_BLOCKS`] blocks as the synth's
+    /// sympathetic strings do, heard where they bear and added as waves.
+    fn traded(
+        &self,
+        strings: &[Vec<(Complex64, Complex64)>],
+        unison: &[(Complex64, Complex64)],
+        chosen: &dyn Fn(usize) -> bool,
+    ) -> f64 {
+        let Ring { heard_modes, shapes, partners, step_s, gain } = *self;
+        let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
+        let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
+        let mut partials = strings.iter().map(Vec::len).min().unwrap_or(0);
+        if !unison.is_empty() {
+            partials = partials.min(unison.len());
+        }
+        // The strongest PROBE_PARTIALS partials by their strings' own ring.
+        let alone =
+            |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
+        let mut order: Vec<usize> =
+            (0..partials).filter(|&i| chosen(i) && strings.iter().all(|s| s[i].1.im > 0.0)).collect();
+        order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
+        order.truncate(PROBE_PARTIALS);
+        let (first, last) = ((from / h).ceil() as usize, (to / h).floor() as usize);
+        let blocks = (last + 1).saturating_sub(first).max(1) as f64;
+        let mut mics = 0.0;
+        for i in order {
+            let own: Vec<&Partner> = partners.iter().filter(|p| p.partial == i).collect();
+            // Without partners the interval is the unison's; with them, the
+            // sympathetic strings' (SYMPATHY_STEPS of them to a unison trade).
+            let steps = if own.is_empty() { 1 } else { SYMPATHY_STEPS };
+            let dt = h / steps as f64;
+            let turn: Vec<Complex64> = strings.iter().map(|s| (s[i].1 * dt).exp()).collect();
+            let mut zeta: Vec<Complex64> = strings.iter().map(|s| s[i].0).collect();
+            let [l, r] = heard_modes.transfer_shaped_pa_per_n(shapes, strings[0][i].1.im / (2.0 * PI));
+            let heard: Vec<[Complex64; 2]> =
+                own.iter().map(|p| heard_modes.transfer_shaped_pa_per_n(p.shapes, p.lambda.im / (2.0 * PI))).collect();
+            let their_turn: Vec<Complex64> = own.iter().map(|p| (p.lambda * dt).exp()).collect();
+            let mut theirs: Vec<Complex64> = own.iter().map(|p| p.since_strike(strings, i, dt, h)).collect();
+            // A partner rings (and gives back) once what it was given would
+            // wake it, as the synth wakes a silent key (the probe's units are
+            // full scale; the two keys' gains onto the body taken alike).
+            let mut awake: Vec<bool> = own.iter().zip(&theirs).map(|(p, z)| wakes(z / p.count, SILENCE)).collect();
+            let mut given = vec![Complex64::new(0.0, 0.0); zeta.len()];
+            for step in 1..=last * steps {
+                zeta.iter_mut().zip(&turn).for_each(|(z, t)| *z *= t);
+                theirs.iter_mut().zip(&their_turn).for_each(|(z, t)| *z *= t);
+                // What each side gave the other over the interval, all read
+                // before any is moved.
+                given.fill(Complex64::new(0.0, 0.0));
+                for ((p, their), awake) in own.iter().zip(theirs.iter_mut()).zip(awake.iter_mut()) {
+                    let sum: Complex64 =
+                        zeta.iter().enumerate().filter(|&(s, _)| p.strings & (1 << s) != 0).map(|(_, z)| z).sum();
+                    if *awake {
+                        for (_, g) in given.iter_mut().enumerate().filter(|&(s, _)| p.strings & (1 << s) != 0) {
+                            *g += p.into_mine * *their;
+                        }
+                    }
+                    *their += p.count * p.into_theirs * sum;
+                    *awake = *awake || wakes(*their / p.count, SILENCE);
+                }
+                zeta.iter_mut().zip(&given).for_each(|(z, g)| *z += g);
+                if step % steps != 0 {
+                    continue;
+                }
+                if !unison.is_empty() {
+                    trade(unison[i], &mut zeta);
+                }
+                theirs.iter_mut().zip(&own).for_each(|(z, p)| *z *= p.in_step);
+                if step / steps >= first {
+                    let sum = zeta.iter().sum::<Complex64>();
+                    let (mut pl, mut pr) = (l * sum, r * sum);
+                    for ((t, z), _) in heard.iter().zip(&theirs).zip(&awake).filter(|(_, a)| **a) {
+                        pl += t[0] * z;
+                        pr += t[1] * z;
+                    }
+                    mics += 0.25 * (pl.norm_sqr() + pr.norm_sqr()) * gain * gain / blocks;
+                }
             }
         }
+        mics
     }
-    (mics, bridge)
+}
+
+impl Partner<'_> {
+    /// Its sum at the end of the probe, moved from rest at the strike by
+    /// partial `i` of `strings` (as they stand then, run back to the strike as
+    /// free modes) over [`PROBE_S`]: the forced answer of its strings in step
+    /// (their pole moved by their unison's trade over `h`) to what one
+    /// interval of `dt` gives them per second.
+    fn since_strike(&self, strings: &[Vec<(Complex64, Complex64)>], i: usize, dt: f64, h: f64) -> Complex64 {
+        let in_step = self.lambda + self.in_step.ln() / h;
+        let rate = self.count * self.into_theirs / dt;
+        strings
+            .iter()
+            .enumerate()
+            .filter(|&(s, _)| self.strings & (1 << s) != 0)
+            .map(|(_, s)| {
+                let (z, lambda) = s[i];
+                let d = lambda - in_step;
+                // (e^(lambda P) - e^(in_step P)) / d from z at the strike, z e^(-lambda P).
+                let answer = if d.norm() * PROBE_S < 1e-9 {
+                    Complex64::new(PROBE_S, 0.0)
+                } else {
+                    (1.0 - (-d * PROBE_S).exp()) / d
+                };
+                rate * z * answer
+            })
+            .sum()
+    }
 }
 
 /// [`ring_through_body`] for a key whose exciter stays on its strings (a
@@ -228,11 +380,19 @@ struct Body<'a, 'b> {
     shapes: &'a [f64],
     share: ZoneShare,
     soundboard: &'b mut Soundboard,
+    /// The free strings the key sets ringing.
+    partners: &'a [Partner<'a>],
 }
 
 impl Body<'_, '_> {
     fn reborrow(&mut self) -> Body<'_, '_> {
-        Body { heard_modes: self.heard_modes, shapes: self.shapes, share: self.share, soundboard: self.soundboard }
+        Body {
+            heard_modes: self.heard_modes,
+            shapes: self.shapes,
+            share: self.share,
+            soundboard: self.soundboard,
+            partners: self.partners,
+        }
     }
 }
 
@@ -285,7 +445,7 @@ const REGULATION_CLOSER_DB: f64 = 1.5;
 /// The least rise of the ring from one regulated touch to the next, dB: a
 /// margin for what the estimate of the ring from a short probe misses (up to
 /// about 2 dB on the top keys, against renders).
-const REGULATION_RISE_DB: f64 = 0.75;
+const REGULATION_RISE_DB: f64 = 1.0;
 
 /// A key's regulation: how much each touch (by its value, as
 /// [`Key::regulate`] takes it) must be turned down so that its ring through the
@@ -296,8 +456,8 @@ const REGULATION_RISE_DB: f64 = 0.75;
 /// every harder touch, by [`REGULATION_RISE_DB`] a step (never louder than the
 /// physics gives; at worst a stretch of the crescendo rising slowly).
 fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body, force: &mut [f64]) -> Regulation {
-    let (lo, hi) = range.bounds();
-    let step = (hi / lo).powf(1.0 / (REGULATION_TOUCHES - 1) as f64);
+    let lo = range.bounds().0;
+    let step = regulation_step(range);
     let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
     let mut points: Vec<(f64, f64)> =
         (0..REGULATION_TOUCHES).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
@@ -323,7 +483,7 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     let mut held = vec![0.0; points.len()];
     let mut ceiling = f64::INFINITY;
     for i in (0..points.len()).rev() {
-        let margin = points.get(i + 1).map_or(0.0, |next| REGULATION_RISE_DB * (next.0 / points[i].0).ln() / step.ln());
+        let margin = points.get(i + 1).map_or(0.0, |next| rise_margin_db(points[i].0, next.0, step));
         ceiling = (ceiling * 10f64.powf(-margin / 10.0)).min(points[i].1);
         held[i] = ceiling;
     }
@@ -339,6 +499,18 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     Regulation { table, rings: points }
 }
 
+/// The ratio of one regulated touch to the next over `range`.
+fn regulation_step(range: TouchRange) -> f64 {
+    let (lo, hi) = range.bounds();
+    (hi / lo).powf(1.0 / (REGULATION_TOUCHES - 1) as f64)
+}
+
+/// How far under the ring of touch `harder` the ring of touch `softer` is
+/// held, dB: [`REGULATION_RISE_DB`] a regulation step (`step`), in proportion.
+fn rise_margin_db(softer: f64, harder: f64, step: f64) -> f64 {
+    REGULATION_RISE_DB * (harder / softer).ln() / step.ln()
+}
+
 /// A key's regulation ([`regulation`]): its gain by touch, and the ring
 /// power through the body it was weighed with at those touches.
 struct Regulation {
@@ -346,17 +518,23 @@ struct Regulation {
     rings: Vec<(f64, f64)>,
 }
 
-/// How far a key may ring over the mean of its two neighbours at any touch,
-/// dB, before it is turned down there.
+/// How far a key may ring over (or under) the mean of its two neighbours at
+/// any touch, dB, before it is turned down (or up) there.
 const EVEN_DB: f64 = 3.0;
+
+/// The most a key is turned up at a touch to meet its neighbours, dB.
+const MAX_RAISE_DB: f64 = 12.0;
 
 /// Even out `keys` (in key order, each with its voicing, every key turned
 /// down at least by `headroom`) touch by touch, as a technician voices a
 /// scale: where a key rings more than [`EVEN_DB`] over the mean of its
 /// neighbours at a touch (a treble hammer whose spectrum leaps at a softer
-/// touch than theirs), it is turned down there to that; then each touch is
-/// held under every harder one again, so a crescendo still never falls.
-pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64) {
+/// touch than theirs), it is turned down there to that, and where it rings
+/// more than that under them, below its loudest touch, turned up to that (by
+/// at most [`MAX_RAISE_DB`]); then each touch is held under every harder one
+/// again, so a crescendo still never falls.
+pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64, range: TouchRange) {
+    let step = regulation_step(range);
     // Each key's ring by touch as heard: its rings times its regulation and
     // its gain onto the body, squared.
     let heard: Vec<Vec<(f64, f64)>> = keys
@@ -381,23 +559,38 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64) {
         }
         let key = &mut keys[i].1;
         let mut table = key.regulation().to_vec();
-        for ((t, g), &(_, own)) in table.iter_mut().zip(&heard[i]) {
+        let last = table.len().saturating_sub(1);
+        for (j, ((t, g), &(_, own))) in table.iter_mut().zip(&heard[i]).enumerate() {
             let mean_db = neighbours.iter().map(|h| 10.0 * regulated(h, *t).max(1e-300).log10()).sum::<f64>()
                 / neighbours.len() as f64;
-            let over_db = 10.0 * own.max(1e-300).log10() - mean_db - EVEN_DB;
+            let own_db = 10.0 * own.max(1e-300).log10();
+            let over_db = own_db - mean_db - EVEN_DB;
+            let under_db = mean_db - EVEN_DB - own_db;
             if over_db > 0.0 {
                 *g *= 10f64.powf(-over_db / 20.0);
+            } else if under_db > 0.0 && j < last && own > 0.0 {
+                // Under them (its share of what rings with it, or a partial
+                // it all but misses, smaller at this touch than at the touch
+                // it is voiced at): raised to that, below its loudest touch
+                // (whose peak the headroom holds).
+                *g *= 10f64.powf(under_db.min(MAX_RAISE_DB) / 20.0);
             }
         }
-        // From the hardest touch down, each held under the next.
+        // From the hardest touch down, each held under the next by the
+        // regulation's margin.
         let rings = &keys[i].2.rings;
         let mut ceiling = f64::INFINITY;
-        for (j, (_, g)) in table.iter_mut().enumerate().rev() {
-            let ring = rings.get(j).map_or(0.0, |r| r.1) * *g * *g;
+        for j in (0..table.len()).rev() {
+            if let Some(&(harder, _)) = table.get(j + 1) {
+                ceiling *= 10f64.powf(-rise_margin_db(table[j].0, harder, step) / 10.0);
+            }
+            let own = rings.get(j).map_or(0.0, |r| r.1);
+            let g = &mut table[j].1;
+            let ring = own * *g * *g;
             if ring > ceiling && ring > 0.0 {
                 *g *= (ceiling / ring).sqrt();
             }
-            ceiling = ceiling.min(rings.get(j).map_or(0.0, |r| r.1) * *g * *g);
+            ceiling = ceiling.min(own * *g * *g);
         }
         keys[i].1.regulate(table);
     }
@@ -407,6 +600,8 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64) {
 pub(super) struct Voicer<'a> {
     pub board: &'a BodyDesign,
     pub heard_modes: &'a HeardModes,
+    /// Each key's free partners ([`partners`]), by MIDI key.
+    pub partners: &'a [Vec<Partner<'a>>],
     /// The instrument's touches, and the one its level scale is set at.
     pub range: TouchRange,
     pub ringing: Touch,
@@ -419,8 +614,9 @@ impl Voicer<'_> {
     /// instrument's body: regulate it and return how much louder than its
     /// bridge-force gain it bears on the body ([`voice_through_body`]).
     pub fn voice(&self, key: &mut Key, midi_key: u8, soundboard: &mut Soundboard) -> Voiced {
-        let Voicer { board, heard_modes, range, ringing, regulate } = *self;
-        voice_through_body(key, midi_key, (range, ringing), board, heard_modes, soundboard, regulate)
+        let Voicer { board, heard_modes, partners, range, ringing, regulate } = *self;
+        let partners = partners.get(midi_key as usize).map_or(&[][..], Vec::as_slice);
+        voice_through_body(key, midi_key, (range, ringing), (board, heard_modes, partners), soundboard, regulate)
     }
 }
 
@@ -440,8 +636,7 @@ fn voice_through_body(
     key: &mut Key,
     midi_key: u8,
     (range, ringing): (TouchRange, Touch),
-    board: &BodyDesign,
-    heard_modes: &HeardModes,
+    (board, heard_modes, partners): (&BodyDesign, &HeardModes, &[Partner]),
     soundboard: &mut Soundboard,
     regulate: bool,
 ) -> Voiced {
@@ -449,7 +644,7 @@ fn voice_through_body(
     let mut force = vec![0.0; (PROBE_S * fs) as usize];
     let shapes = heard_modes.shapes(&board.share_points(midi_key));
     let gain = soundboard.gain();
-    let mut body = Body { heard_modes, shapes: &shapes, share: board.zone_share(midi_key), soundboard };
+    let mut body = Body { heard_modes, shapes: &shapes, share: board.zone_share(midi_key), soundboard, partners };
     let loudest = range.max();
     let mut top_gain = 1.0;
     let mut rings = Vec::new();

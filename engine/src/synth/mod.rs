@@ -44,9 +44,6 @@ use sympathy::Sympathy;
 pub use crate::CONTROL_BLOCK;
 pub use crate::key::MAX_BEBUNG_CENTS;
 
-/// The velocity (0..=1) each instrument's level scale is measured at: a key's
-/// ringing 50-300 ms after a note-on at this velocity is what the scale evens.
-pub const LEVEL_VELOCITY: f64 = 0.7;
 /// A key whose output can no longer exceed this (-120 dBFS) stops computing.
 pub const SILENCE: f64 = 1e-6;
 /// A stolen key fades out over this long, s.
@@ -128,7 +125,8 @@ pub struct Controls {
     /// range, on a logarithmic scale.
     pub touch_min: f64,
     pub touch_max: f64,
-    /// Velocity curve exponent: 1 linear (in log speed), above 1 needs a harder touch.
+    /// Velocity curve exponent on the instrument's own curve
+    /// ([`TouchRange::curve`]): 1 as built, above 1 needs a harder touch.
     pub touch_shape: f64,
     /// Most keys sounding at once.
     pub polyphony: usize,
@@ -207,7 +205,7 @@ impl Controls {
         let span = (max / min).ln();
         let lo = self.touch_min.clamp(0.0, 1.0);
         let hi = self.touch_max.clamp(0.0, 1.0);
-        let v = self.played_velocity(velocity).powf(self.touch_shape.clamp(0.1, 10.0));
+        let v = self.played_velocity(velocity).powf(self.touch_shape.clamp(0.1, 10.0) * range.curve());
         range.with(min * (span * (lo + (hi - lo) * v)).exp())
     }
 }
@@ -302,7 +300,14 @@ impl Instrument {
         let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
         let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
         let range = settings.kind.touch_range();
-        let ringing = Controls::default().touch(range, LEVEL_VELOCITY);
+        let ringing = range.level_touch();
+        // What each key sets ringing of the strings that ring free beside it
+        // (the undamped treble, a dulcimer's courses), heard where they bear.
+        let shapes: Vec<Vec<f64>> = (0..128u8)
+            .map(|k| if keys[k as usize].is_some() { heard.shapes(&board.share_points(k)) } else { Vec::new() })
+            .collect();
+        let partners: Vec<Vec<body_voicing::Partner>> =
+            (0..128u8).map(|k| body_voicing::partners(&sympathy, &keys, k, &shapes)).collect();
         // Keys are voiced one by one, each from a body at rest: on every core,
         // the keys dealt out in turn (a treble key costs more than a bass one).
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
@@ -312,7 +317,14 @@ impl Instrument {
         {
             hands[i % cores].push((k, key));
         }
-        let voicer = Voicer { board: &board, heard_modes: &heard, range, ringing, regulate: settings.strings_on_body };
+        let voicer = Voicer {
+            board: &board,
+            heard_modes: &heard,
+            partners: &partners,
+            range,
+            ringing,
+            regulate: settings.strings_on_body,
+        };
         let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
             let workers: Vec<_> = hands
                 .into_iter()
@@ -332,7 +344,7 @@ impl Instrument {
         });
         let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
         voiced.sort_by_key(|v| v.0);
-        body_voicing::even_out(&mut voiced, headroom);
+        body_voicing::even_out(&mut voiced, headroom, range);
         for (k, key, v) in &mut voiced {
             key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
         }

@@ -64,6 +64,25 @@ const NEGLIGIBLE: f64 = 3e-3;
 /// board by itself over an interval.
 const PASSIVE_SHARE: f64 = 0.9;
 
+/// A pair of partials as one of its keys meets it ([`Sympathy::pairs_of`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PairOf {
+    /// This key's partial and the strings (bit i: string i) that sound it.
+    pub partial: usize,
+    pub strings: u8,
+    /// The other key, its partial, its strings and the partial's pole, s^-1.
+    pub other: u8,
+    pub other_partial: usize,
+    pub other_strings: u8,
+    pub other_pole: Complex64,
+    /// What one interval adds to each of this key's strings per unit of the
+    /// other's summed phasor, and to each of the other's per unit of this
+    /// key's (both in the keys' own units: weighed by their gains as
+    /// [`Sympathy::trade`] weighs them, they are heard as the physics has it).
+    pub into_mine: Complex64,
+    pub into_theirs: Complex64,
+}
+
 /// A pair of partials as one of its keys takes from the other.
 #[derive(Clone, Copy, Debug)]
 struct Link {
@@ -291,6 +310,34 @@ impl Sympathy {
     /// How many pairs of partials trade.
     pub fn len(&self) -> usize {
         self.count
+    }
+
+    /// Every pair key `k` is in, as `k` meets it: its partial and the other's,
+    /// and what one interval adds each way. Allocates; off the audio thread.
+    pub fn pairs_of(&self, k: u8) -> Vec<PairOf> {
+        let k = k as usize;
+        let Some(links) = self.by_key.get(k) else {
+            return Vec::new();
+        };
+        links
+            .iter()
+            .filter_map(|link| {
+                let (mine, theirs) = (self.slots[link.mine as usize], self.slots[link.theirs as usize]);
+                // The other key's side of the same pair.
+                let back =
+                    self.by_key[theirs.key as usize].iter().find(|l| l.mine == link.theirs && l.theirs == link.mine)?;
+                Some(PairOf {
+                    partial: mine.partial as usize,
+                    strings: mine.strings,
+                    other: theirs.key,
+                    other_partial: theirs.partial as usize,
+                    other_strings: theirs.strings,
+                    other_pole: self.poles[link.theirs as usize],
+                    into_mine: link.into_mine,
+                    into_theirs: back.into_mine,
+                })
+            })
+            .collect()
     }
 
     /// One block's share of the trading among `keys` at `level` (0..=1 of

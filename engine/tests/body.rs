@@ -114,7 +114,7 @@ fn neighbouring_keys_ring_alike_at_every_touch() {
     // No key of the piano stands out from the keys beside it, soft or loud:
     // within 5 dB of the mean of its two neighbours (the knock-limited top
     // octave included). Keys are voiced at the level scale's touch (1.96
-    // m/s), and evened out touch by touch where one rings over or under its
+    // m/s, velocity 77), and evened out touch by touch where one rings over or under its
     // neighbours: a treble key's ring leaps by 6 to 13 dB over one step of 8
     // in velocity where its felt stiffens past the point its contact is short
     // enough to sound the fundamental, B7 leaps at a softer touch than its
@@ -123,8 +123,8 @@ fn neighbouring_keys_ring_alike_at_every_touch() {
     // from about 1 m/s up, nothing at the softest touches (voiced with it,
     // they were holes there before the evening raised them). Before the
     // voicing weighed what rings with a key and evened up as well as down, B6
-    // stood 5.2-5.7 dB over its neighbours from 2 m/s on (velocity 90 up) and
-    // F6 6-7 dB under them below 1.2 m/s (velocity 70).
+    // stood 5.2-5.7 dB over its neighbours from 2 m/s on (velocity 79 up) and
+    // F6 6-7 dB under them below 1.2 m/s (velocity 60).
     let mut s = synth(InstrumentKind::Piano, Output::Microphones);
     for velocity in [40u8, 64, 80, 100, 120] {
         let rings: Vec<(u8, f64)> = (21..=108)

@@ -617,6 +617,33 @@ fn velocity_curve_maps_the_touch_range() {
 }
 
 #[test]
+fn the_pianos_velocities_strike_as_recording_grands_record_them() {
+    // Two grand pianos that record their players write velocity for the
+    // hammer's speed v (m/s): Goebl's map for the Bosendorfer SE, 52 + 25
+    // log2 v, and a fit to a Yamaha Disklavier's, 57.96 + 71.3 log10 v (both
+    // read second-hand). The piano's curve lies within 12 % of their
+    // geometric mean over the velocities players use, and keeps Boutillon's
+    // extremes at the ends (which both maps overshoot at 127).
+    let c = Controls::default();
+    let range = InstrumentKind::Piano.touch_range();
+    let mut worst = 0.0f64;
+    for velocity in 20..=100 {
+        let v = f64::from(velocity);
+        let recorded = (2f64.powf((v - 52.0) / 25.0) * 10f64.powf((v - 57.96) / 71.3)).sqrt();
+        let played = c.touch(range, v / 127.0).value();
+        worst = worst.max((played / recorded - 1.0).abs());
+    }
+    let at = |velocity: f64| c.touch(range, velocity / 127.0).value();
+    println!("velocity 64: {:.2} m/s, 80: {:.2}, 100: {:.2}; at most {:.1} % off the maps' mean", at(64.0), at(80.0), at(100.0), 100.0 * worst);
+    assert!(worst < 0.12, "{worst}");
+    assert!((at(127.0) - 7.0).abs() < 1e-9 && (at(0.0) - 0.1).abs() < 1e-9);
+    // The level scale is set at 1.96 m/s, now velocity 77.
+    let level = range.level_velocity() * 127.0;
+    assert!((c.touch(range, range.level_velocity()).value() - range.level_touch().value()).abs() < 1e-12);
+    assert!((76.0..79.0).contains(&level), "{level}");
+}
+
+#[test]
 fn a_rebuild_of_the_same_instrument_keeps_keys_ringing() {
     let settings = default_settings(InstrumentKind::Piano, FS);
     let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;

@@ -26,8 +26,21 @@ use super::{KeyDesign, TouchRange, Voicing, key_frequency_hz};
 pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
 /// Hammer speeds from pianissimo to fortissimo (Boutillon 1988 measured 0.11 to
-/// 6.83 m/s), m/s.
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
+/// 6.83 m/s), m/s, and the curve between them: velocity is what grand pianos
+/// that record their players write for each hammer's speed. Goebl's map for the
+/// Bosendorfer SE (MIDI velocity = 52 + 25 log2 of the speed in m/s; his thesis,
+/// 2003) and a fit to a Yamaha Disklavier's (57.96 + 71.3 log10; Goebl and
+/// Bresin, 2001) put velocity 64 at 1.4 and 1.2 m/s, 80 at 2.2 and 2.0, 100 at
+/// 3.8 and 3.9 (both read second-hand); the curve 0.72 is the least-squares fit
+/// in the log of the speed to their geometric mean over velocities 25-110
+/// (within 12 % of it from 20 to 100), its ends kept at Boutillon's extremes,
+/// which both maps overshoot at 127 (8 and 9.3 m/s). An even log scale (curve 1)
+/// had played velocities 20-110 1.3 to 1.8 times too slowly: 80 at 1.45 m/s,
+/// under the 1.5-2.5 m/s a mezzo-forte key's 0.3-0.5 m/s gives the hammer
+/// (Askenfelt and Jansson's key speeds, the hammer about 5 times as fast).
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: TOUCH_CURVE };
+/// The velocity curve of [`TOUCH`] (see there).
+const TOUCH_CURVE: f64 = 0.72;
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 7.0;
 
@@ -41,7 +54,8 @@ const LAST_DAMPED_KEY: u8 = 90;
 /// 1 s at C8.
 const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_s_kg: 5.0e-4, tangent: None };
 
-/// Output level (see [`Level`]). The ringing at the level touch (velocity 0.7) is aimed at -28 dBFS.
+/// Output level (see [`Level`]). The ringing at the level touch (1.96 m/s,
+/// velocity 77) is aimed at -28 dBFS.
 /// The loudest touch peaks some 24 dB above that ringing in the middle (11 dB of
 /// it the touch: velocity 1 strikes 3.6 times as fast), so the middle could ring
 /// at -25 dBFS at most; the bass, panned left, peaks 2 to 2.6 dB higher in that

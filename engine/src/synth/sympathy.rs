@@ -323,9 +323,12 @@ impl Sympathy {
             .iter()
             .filter_map(|link| {
                 let (mine, theirs) = (self.slots[link.mine as usize], self.slots[link.theirs as usize]);
-                // The other key's side of the same pair.
-                let back =
-                    self.by_key[theirs.key as usize].iter().find(|l| l.mine == link.theirs && l.theirs == link.mine)?;
+                // The other key's side of the same pair, among its pairs with this key.
+                let other = theirs.key as usize;
+                let &(_, from, to) = self.by_other[other].iter().find(|&&(o, _, _)| o as usize == k)?;
+                let back = self.by_key[other][from as usize..to as usize]
+                    .iter()
+                    .find(|l| l.mine == link.theirs && l.theirs == link.mine)?;
                 Some(PairOf {
                     partial: mine.partial as usize,
                     strings: mine.strings,
@@ -501,6 +504,29 @@ impl Sympathy {
 mod tests {
     use crate::design::InstrumentKind;
     use crate::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
+
+    #[test]
+    fn each_pair_is_met_from_both_its_keys() {
+        // What a key's side of a pair says the other takes is what the
+        // other's side says it takes itself.
+        let instrument = Instrument::build(&default_settings(InstrumentKind::Piano, 48_000.0)).unwrap();
+        let (synth, _) = Synth::new(Box::new(instrument));
+        let sympathy = &synth.current.sympathy;
+        let mut met = 0;
+        for k in 21..=108u8 {
+            for pair in sympathy.pairs_of(k) {
+                let back = sympathy
+                    .pairs_of(pair.other)
+                    .into_iter()
+                    .find(|b| b.other == k && b.partial == pair.other_partial && b.other_partial == pair.partial)
+                    .unwrap();
+                assert_eq!((back.into_mine, back.into_theirs), (pair.into_theirs, pair.into_mine));
+                assert_eq!((back.strings, back.other_strings), (pair.other_strings, pair.strings));
+                met += 1;
+            }
+        }
+        assert_eq!(met, 2 * sympathy.len());
+    }
 
     #[test]
     #[ignore = "a timing to look at"]

@@ -444,7 +444,9 @@ const REGULATION_CLOSER_DB: f64 = 1.5;
 
 /// The least rise of the ring from one regulated touch to the next, dB: a
 /// margin for what the estimate of the ring from a short probe misses (up to
-/// about 2 dB on the top keys, against renders).
+/// about 2 dB on the top keys, against renders; at 0.75 dB, once the
+/// estimate weighed the free strings too, A#7's crescendo fell 0.6 dB from
+/// velocity 104 to 112).
 const REGULATION_RISE_DB: f64 = 1.0;
 
 /// A key's regulation: how much each touch (by its value, as

@@ -634,7 +634,13 @@ fn the_pianos_velocities_strike_as_recording_grands_record_them() {
         worst = worst.max((played / recorded - 1.0).abs());
     }
     let at = |velocity: f64| c.touch(range, velocity / 127.0).value();
-    println!("velocity 64: {:.2} m/s, 80: {:.2}, 100: {:.2}; at most {:.1} % off the maps' mean", at(64.0), at(80.0), at(100.0), 100.0 * worst);
+    println!(
+        "velocity 64: {:.2} m/s, 80: {:.2}, 100: {:.2}; at most {:.1} % off the maps' mean",
+        at(64.0),
+        at(80.0),
+        at(100.0),
+        100.0 * worst
+    );
     assert!(worst < 0.12, "{worst}");
     assert!((at(127.0) - 7.0).abs() < 1e-9 && (at(0.0) - 0.1).abs() < 1e-9);
     // The level scale is set at 1.96 m/s, now velocity 77.

@@ -225,8 +225,8 @@ pub(super) const PEAK_CEILING_DBFS: f64 = -1.5;
 ///
 /// The player hears the ringing tone, so that is what is made even: every key is
 /// given the gain that puts the RMS of its output from 50 to 300 ms after a note-on
-/// at the range's level touch ([`super::TouchRange::level_touch`]; one key alone, a damper that only the pedal
-/// lifts held off by it) at `ring_target_dbfs`. That
+/// at the range's level touch ([`super::TouchRange::level_touch`]; one key alone,
+/// a damper that only the pedal lifts held off by it) at `ring_target_dbfs`. That
 /// gain is the physical scaling 1 / `peak_n` (the instrument's own estimate of the
 /// loudest touch's peak bridge force, N) times a smooth correction: `ring_db` is
 /// the ringing such a key gives at a gain of exactly 1 / `peak_n`, dB, a

@@ -602,7 +602,9 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64, range
 pub(super) struct Voicer<'a> {
     pub board: &'a BodyDesign,
     pub heard_modes: &'a HeardModes,
-    /// Each key's free partners ([`partners`]), by MIDI key.
+    /// The body's modes' shapes where each key bears ([`HeardModes::shapes`]),
+    /// and each key's free partners ([`partners`]), by MIDI key.
+    pub shapes: &'a [Vec<f64>],
     pub partners: &'a [Vec<Partner<'a>>],
     /// The instrument's touches, and the one its level scale is set at.
     pub range: TouchRange,
@@ -616,9 +618,19 @@ impl Voicer<'_> {
     /// instrument's body: regulate it and return how much louder than its
     /// bridge-force gain it bears on the body ([`voice_through_body`]).
     pub fn voice(&self, key: &mut Key, midi_key: u8, soundboard: &mut Soundboard) -> Voiced {
-        let Voicer { board, heard_modes, partners, range, ringing, regulate } = *self;
-        let partners = partners.get(midi_key as usize).map_or(&[][..], Vec::as_slice);
-        voice_through_body(key, midi_key, (range, ringing), (board, heard_modes, partners), soundboard, regulate)
+        let Voicer { board, heard_modes, shapes, partners, range, ringing, regulate } = *self;
+        fn at<T>(table: &[Vec<T>], key: u8) -> &[T] {
+            table.get(key as usize).map_or(&[], Vec::as_slice)
+        }
+        let (shapes, partners) = (at(shapes, midi_key), at(partners, midi_key));
+        voice_through_body(
+            key,
+            midi_key,
+            (range, ringing),
+            (board, heard_modes, shapes, partners),
+            soundboard,
+            regulate,
+        )
     }
 }
 
@@ -638,15 +650,14 @@ fn voice_through_body(
     key: &mut Key,
     midi_key: u8,
     (range, ringing): (TouchRange, Touch),
-    (board, heard_modes, partners): (&BodyDesign, &HeardModes, &[Partner]),
+    (board, heard_modes, shapes, partners): (&BodyDesign, &HeardModes, &[f64], &[Partner]),
     soundboard: &mut Soundboard,
     regulate: bool,
 ) -> Voiced {
     let fs = 1.0 / soundboard.step_s();
     let mut force = vec![0.0; (PROBE_S * fs) as usize];
-    let shapes = heard_modes.shapes(&board.share_points(midi_key));
     let gain = soundboard.gain();
-    let mut body = Body { heard_modes, shapes: &shapes, share: board.zone_share(midi_key), soundboard, partners };
+    let mut body = Body { heard_modes, shapes, share: board.zone_share(midi_key), soundboard, partners };
     let loudest = range.max();
     let mut top_gain = 1.0;
     let mut rings = Vec::new();

@@ -301,8 +301,9 @@ impl Instrument {
         let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
         let range = settings.kind.touch_range();
         let ringing = range.level_touch();
-        // What each key sets ringing of the strings that ring free beside it
-        // (the undamped treble, a dulcimer's courses), heard where they bear.
+        // Where each key bears on the body, and what it sets ringing of the
+        // strings that ring free beside it (the undamped treble, a dulcimer's
+        // courses), heard where they bear.
         let shapes: Vec<Vec<f64>> = (0..128u8)
             .map(|k| if keys[k as usize].is_some() { heard.shapes(&board.share_points(k)) } else { Vec::new() })
             .collect();
@@ -320,6 +321,7 @@ impl Instrument {
         let voicer = Voicer {
             board: &board,
             heard_modes: &heard,
+            shapes: &shapes,
             partners: &partners,
             range,
             ringing,

@@ -644,23 +644,41 @@ impl Key {
         self.damper.target(self.down() || self.sostenuto, sustain) < 1.0
     }
 
-    /// The summed phasor of partial `partial` over `strings` (bit i: string i), N
-    /// (read from the gathering while its strings run there).
+    /// For each of `ports` (strings, partial), the summed phasor of
+    /// `partial` over `strings` (bit i: string i), N, into the same place of
+    /// `out` (read from the gathering while its strings run there), taken
+    /// string by string. `first` says that the ports are partials 0, 1, 2 ...
+    /// of the same strings, as a key's are unless its strings sound apart:
+    /// each string's modes are then read as one run (the same sums).
     #[inline]
-    pub fn partial_sum(&self, strings: u8, partial: usize) -> Complex64 {
-        let mut sum = Complex64::new(0.0, 0.0);
+    pub(crate) fn partial_sums(&self, ports: &[(u8, u16)], first: bool, out: &mut [Complex64]) {
+        out.fill(Complex64::new(0.0, 0.0));
+        if first && let Some(&(strings, _)) = ports.first() {
+            for (i, s) in self.strings.iter().enumerate().filter(|&(i, _)| strings & (1 << i) != 0) {
+                let sums = &mut out[..s.bank().running().min(ports.len())];
+                match self.gathered_at(i) {
+                    Some(at) => self.gather.add_phasors(at, s.audio().backs(), sums),
+                    None => s.bank().add_phasors(sums),
+                }
+            }
+            return;
+        }
         for (i, s) in self.strings.iter().enumerate() {
-            if strings & (1 << i) != 0 && partial < s.bank().running() {
-                sum += match self.gathered_at(i) {
-                    Some(at) => {
-                        let (back_re, _, back_inv) = s.audio().back(partial);
-                        self.gather.phasor(at + partial, back_re, back_inv)
-                    }
-                    None => s.bank().phasor(partial),
-                };
+            let (bit, running) = (1u8 << i, s.bank().running());
+            let at = self.gathered_at(i);
+            for (sum, &(strings, partial)) in out.iter_mut().zip(ports) {
+                let partial = partial as usize;
+                if strings & bit != 0 && partial < running {
+                    *sum += match at {
+                        Some(at) => {
+                            let (back_re, _, back_inv) = s.audio().back(partial);
+                            self.gather.phasor(at + partial, back_re, back_inv)
+                        }
+                        None => s.bank().phasor(partial),
+                    };
+                }
             }
         }
-        sum
     }
 
     /// Where string `i`'s modes lie in the gathering while they run there.

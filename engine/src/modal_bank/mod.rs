@@ -160,6 +160,12 @@ impl StepTable {
         }
     }
 
+    /// Every mode's [`Self::back`] but the pole's inverse's imaginary part:
+    /// its real part and the inverse of its imaginary part.
+    pub fn backs(&self) -> (&[f64], &[f64]) {
+        (&self.back_re, &self.back_inv)
+    }
+
     /// Mode `index`'s pole's inverse and the inverse of its imaginary part ([`inverse`]).
     pub fn back(&self, index: usize) -> (f64, f64, f64) {
         (self.back_re[index], self.back_im[index], self.back_inv[index])
@@ -365,6 +371,16 @@ impl ModalBank {
     /// part, and it turns by the mode's pole each step.
     pub fn phasor(&self, i: usize) -> Complex64 {
         Complex64::new(self.re[i], self.im[i])
+    }
+
+    /// Add the phasors of the first `sums.len()` modes to `sums`, one each.
+    #[inline]
+    pub fn add_phasors(&self, sums: &mut [Complex64]) {
+        let n = sums.len();
+        for ((sum, &re), &im) in sums.iter_mut().zip(&self.re[..n]).zip(&self.im[..n]) {
+            sum.re += re;
+            sum.im += im;
+        }
     }
 
     /// Set mode `i`'s phasor (see [`Self::phasor`]), computing it from now on
@@ -801,6 +817,21 @@ impl FreeGather {
     pub fn phasor(&self, i: usize, back_re: f64, back_inv: f64) -> Complex64 {
         let (x, y) = (self.now[i], self.before[i]);
         Complex64::new(x, (x * back_re - y) * back_inv)
+    }
+
+    /// Add the phasors of the modes taken from `at` on to `sums`, one each,
+    /// with their poles' `back_re` and `back_inv` as [`StepTable::backs`]
+    /// gives them: what [`Self::phasor`] gives, mode by mode.
+    #[inline]
+    pub fn add_phasors(&self, at: usize, (back_re, back_inv): (&[f64], &[f64]), sums: &mut [Complex64]) {
+        let n = sums.len();
+        let (now, before) = (&self.now[at..at + n], &self.before[at..at + n]);
+        for ((((sum, &x), &y), &qr), &inv) in
+            sums.iter_mut().zip(now).zip(before).zip(&back_re[..n]).zip(&back_inv[..n])
+        {
+            sum.re += x;
+            sum.im += (x * qr - y) * inv;
+        }
     }
 
     /// Move the phasor of the mode taken at `i` by `delta`, with its pole's

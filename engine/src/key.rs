@@ -1172,13 +1172,13 @@ impl Key {
         self.cull_in = if scan { CULL_EVERY_BLOCKS - 1 } else { self.cull_in - 1 };
         let (mut bound, mut loudest_n) = self.last_cull;
         if scan {
-            self.settle();
-            (bound, loudest_n) = (0.0, 0.0f64);
-            for s in &mut self.strings {
-                let (string_bound, string_loudest) = s.cull(floor_n);
-                bound += string_bound;
-                loudest_n = loudest_n.max(string_loudest);
-            }
+            (bound, loudest_n) = match self.cull_where_gathered(settled, floor_n) {
+                Some(culled) => culled,
+                None => {
+                    self.settle();
+                    self.cull_strings(floor_n)
+                }
+            };
             self.last_cull = (bound, loudest_n);
         }
         // The products turn freely with their strings: they are set again only
@@ -1229,6 +1229,49 @@ impl Key {
             return true;
         }
         false
+    }
+
+    /// Every string culled ([`StruckString::cull`]): their bound summed and
+    /// the loudest mode.
+    fn cull_strings(&mut self, floor_n: f64) -> (f64, f64) {
+        let (mut bound, mut loudest_n) = (0.0, 0.0f64);
+        for s in &mut self.strings {
+            let (string_bound, string_loudest) = s.cull(floor_n);
+            bound += string_bound;
+            loudest_n = loudest_n.max(string_loudest);
+        }
+        (bound, loudest_n)
+    }
+
+    /// [`Self::cull_strings`] without handing the strings back from the
+    /// gathering (and gathering them again next stretch: a quarter of the
+    /// keys' control blocks did), the gathered strings culled where they run:
+    /// the same bound and loudest mode, the same modes put to rest. Only
+    /// while every string is settled, and only if no string's running modes
+    /// would shrink (the gathering would hold modes no longer run); else
+    /// `None`, and the strings are culled after the settling (the modes put
+    /// to rest here are at rest there: the same again).
+    fn cull_where_gathered(&mut self, settled: bool, floor_n: f64) -> Option<(f64, f64)> {
+        if !settled || !self.gather_live {
+            return None;
+        }
+        let (mut bound, mut loudest_n) = (0.0, 0.0f64);
+        for (i, s) in self.strings.iter_mut().enumerate() {
+            let (string_bound, string_loudest) = match self.gathered[i] {
+                Some(at) if at != usize::MAX => {
+                    let n = s.bank().running();
+                    let (b, loudest, top) = self.gather.cull(at, n, s.audio().backs(), floor_n);
+                    if top < n {
+                        return None;
+                    }
+                    (b, loudest)
+                }
+                _ => s.cull(floor_n),
+            };
+            bound += string_bound;
+            loudest_n = loudest_n.max(string_loudest);
+        }
+        Some((bound, loudest_n))
     }
 
     /// A control block of the unison's strings trading energy through their

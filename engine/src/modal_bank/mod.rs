@@ -819,6 +819,47 @@ impl FreeGather {
         Complex64::new(x, (x * back_re - y) * back_inv)
     }
 
+    /// [`ModalBank::cull`] on the `n` modes taken from `at` where they run,
+    /// with their poles' `back_re` and `back_inv` ([`StepTable::backs`]):
+    /// each mode under `floor_n` put to rest, the same bound and loudest
+    /// mode, and how many of the modes would still run (modes up to the last
+    /// group of [`LANES`] with one left in it). Allocates: no.
+    pub fn cull(
+        &mut self,
+        at: usize,
+        n: usize,
+        (back_re, back_inv): (&[f64], &[f64]),
+        floor_n: f64,
+    ) -> (f64, f64, usize) {
+        let (now, _) = self.now[at..at + n].as_chunks_mut::<LANES>();
+        let (before, _) = self.before[at..at + n].as_chunks_mut::<LANES>();
+        let (qr, _) = back_re[..n].as_chunks::<LANES>();
+        let (inv, _) = back_inv[..n].as_chunks::<LANES>();
+        let mut bound = [0.0; LANES];
+        let mut loudest = 0.0f64;
+        let mut top = 0;
+        for (g, (((x, y), qr), inv)) in now.iter_mut().zip(before.iter_mut()).zip(qr).zip(inv).enumerate() {
+            let mut kept = false;
+            for l in 0..LANES {
+                // (The phasor as `give_back` would hand it back.)
+                let im = (x[l] * qr[l] - y[l]) * inv[l];
+                let magnitude = x[l].abs() + im.abs();
+                if magnitude < floor_n {
+                    x[l] = 0.0;
+                    y[l] = 0.0;
+                } else {
+                    bound[l] += magnitude;
+                    loudest = loudest.max(magnitude);
+                    kept = true;
+                }
+            }
+            if kept {
+                top = g + 1;
+            }
+        }
+        (lane_sum(&bound), loudest, top * LANES)
+    }
+
     /// Add the phasors of the modes taken from `at` on to `sums`, one each,
     /// with their poles' `back_re` and `back_inv` as [`StepTable::backs`]
     /// gives them: what [`Self::phasor`] gives, mode by mode.
@@ -1391,6 +1432,47 @@ mod tests {
         g2.clone().run_fresh(&mut fresh);
         g2.run(&mut twice);
         assert!(fresh.iter().flatten().zip(twice.iter().flatten()).all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+
+    #[test]
+    fn a_gathering_culls_as_its_banks_handed_back_would_cull() {
+        // Modes of every size, some under the floor: culled where they run,
+        // the same bound, the same loudest mode and the same modes at rest
+        // as the banks culled once handed back.
+        let strings = [treble_string(), one_mode(300.0)];
+        let steps: Vec<StepTable> = strings.iter().map(|s| StepTable::new(s, 1.0 / 48_000.0)).collect();
+        let mut banks: Vec<ModalBank> = strings.iter().map(ModalBank::new).collect();
+        for b in &mut banks {
+            for i in 0..b.len() {
+                b.add_velocity(i, (i as f64 + 0.5).cos() * 10f64.powi(-(i as i32 % 7)));
+            }
+        }
+        let mut gather = FreeGather::with_room(banks.iter().map(|b| b.len().next_multiple_of(LANES)).sum());
+        let at: Vec<usize> =
+            banks.iter().zip(&steps).map(|(b, step)| b.gather_free(step, &mut gather).unwrap()).collect();
+        let mut acc = vec![[0.0; LANES]; FREE_BLOCK];
+        gather.run_fresh(&mut acc);
+        for floor in [0.0, 1e-9, 1e-6, 1e-3, 1e3] {
+            let mut culled = gather.clone();
+            for ((b, step), &at) in banks.iter().zip(&steps).zip(&at) {
+                let n = b.running();
+                let (bound, loudest, top) = culled.cull(at, n, step.backs(), floor);
+                let mut handed = b.clone();
+                handed.scatter_free(step, &gather, at);
+                let (bank_bound, bank_loudest) = handed.cull(floor);
+                assert_eq!((bound.to_bits(), loudest.to_bits()), (bank_bound.to_bits(), bank_loudest.to_bits()));
+                assert_eq!(top, handed.running(), "floor {floor}");
+                // (Equal, and to the bit but for a mode put to rest, whose
+                // imaginary part may come back as -0.)
+                let mut back = b.clone();
+                back.scatter_free(step, &culled, at);
+                for (x, y) in
+                    back.re[..top].iter().zip(&handed.re[..top]).chain(back.im[..top].iter().zip(&handed.im[..top]))
+                {
+                    assert!(x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0), "{x} against {y}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -824,40 +824,8 @@ impl FreeGather {
     /// each mode under `floor_n` put to rest, the same bound and loudest
     /// mode, and how many of the modes would still run (modes up to the last
     /// group of [`LANES`] with one left in it). Allocates: no.
-    pub fn cull(
-        &mut self,
-        at: usize,
-        n: usize,
-        (back_re, back_inv): (&[f64], &[f64]),
-        floor_n: f64,
-    ) -> (f64, f64, usize) {
-        let (now, _) = self.now[at..at + n].as_chunks_mut::<LANES>();
-        let (before, _) = self.before[at..at + n].as_chunks_mut::<LANES>();
-        let (qr, _) = back_re[..n].as_chunks::<LANES>();
-        let (inv, _) = back_inv[..n].as_chunks::<LANES>();
-        let mut bound = [0.0; LANES];
-        let mut loudest = 0.0f64;
-        let mut top = 0;
-        for (g, (((x, y), qr), inv)) in now.iter_mut().zip(before.iter_mut()).zip(qr).zip(inv).enumerate() {
-            let mut kept = false;
-            for l in 0..LANES {
-                // (The phasor as `give_back` would hand it back.)
-                let im = (x[l] * qr[l] - y[l]) * inv[l];
-                let magnitude = x[l].abs() + im.abs();
-                if magnitude < floor_n {
-                    x[l] = 0.0;
-                    y[l] = 0.0;
-                } else {
-                    bound[l] += magnitude;
-                    loudest = loudest.max(magnitude);
-                    kept = true;
-                }
-            }
-            if kept {
-                top = g + 1;
-            }
-        }
-        (lane_sum(&bound), loudest, top * LANES)
+    pub fn cull(&mut self, at: usize, n: usize, backs: (&[f64], &[f64]), floor_n: f64) -> (f64, f64, usize) {
+        cull_real_form((&mut self.now[at..at + n], &mut self.before[at..at + n]), backs, floor_n)
     }
 
     /// Add the phasors of the modes taken from `at` on to `sums`, one each,
@@ -929,6 +897,45 @@ fn from_real_form(im: &mut [f64], now: &[f64], before: &[f64], back_re: &[f64], 
     for ((((i, &x), &y), &qr), &inv) in im.iter_mut().zip(now).zip(before).zip(back_re).zip(back_inv) {
         *i = (x * qr - y) * inv;
     }
+}
+
+/// [`FreeGather::cull`] on modes in real form (`now`, `before`), their
+/// poles' inverses as [`StepTable::backs`] gives them. Without a branch on
+/// a mode: a mode put to rest adds a zero to the bound (never -0, a sum of
+/// magnitudes from +0) and to the loudest, the same sums and maximum.
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn cull_real_form(
+    (now, before): (&mut [f64], &mut [f64]),
+    (back_re, back_inv): (&[f64], &[f64]),
+    floor_n: f64,
+) -> (f64, f64, usize) {
+    let n = now.len();
+    let (now, _) = now.as_chunks_mut::<LANES>();
+    let (before, _) = before[..n].as_chunks_mut::<LANES>();
+    let (qr, _) = back_re[..n].as_chunks::<LANES>();
+    let (inv, _) = back_inv[..n].as_chunks::<LANES>();
+    let mut bound = [0.0; LANES];
+    let mut loudest = [0.0f64; LANES];
+    let mut top = 0;
+    for (g, (((x, y), qr), inv)) in now.iter_mut().zip(before.iter_mut()).zip(qr).zip(inv).enumerate() {
+        let mut kept = false;
+        for l in 0..LANES {
+            // (The phasor as `give_back` would hand it back.)
+            let im = (x[l] * qr[l] - y[l]) * inv[l];
+            let magnitude = x[l].abs() + im.abs();
+            let rest = magnitude < floor_n;
+            let left = if rest { 0.0 } else { magnitude };
+            x[l] = if rest { 0.0 } else { x[l] };
+            y[l] = if rest { 0.0 } else { y[l] };
+            bound[l] += left;
+            loudest[l] = loudest[l].max(left);
+            kept |= !rest;
+        }
+        if kept {
+            top = g + 1;
+        }
+    }
+    (lane_sum(&bound), loudest.iter().fold(0.0f64, |m, &v| m.max(v)), top * LANES)
 }
 
 /// Gathered modes in real form ([`FreeGather`]) over `acc.len()` samples,

@@ -940,8 +940,30 @@ fn cull_real_form(
 
 /// Gathered modes in real form ([`FreeGather`]) over `acc.len()` samples,
 /// adding (or, if `fresh`, writing) each sample's bridge force to `acc` by lane.
+/// As many groups run together as the target's vector registers hold: with
+/// AVX-512's 32, [`REAL_CHAIN`] with their recursions' coefficients kept in
+/// registers too; elsewhere [`REAL_CHAIN_NARROW`], the coefficients read from
+/// memory by each step. The sums are the same bits either way.
 #[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
 fn real_block_into(
+    now: &mut [f64],
+    before: &mut [f64],
+    twice_re: &[f64],
+    minus_norm: &[f64],
+    acc: &mut [[f64; LANES]],
+    fresh: bool,
+) {
+    if multiversion::target::target_cfg_f!(target_feature = "avx512f") {
+        real_block_chains::<REAL_CHAIN, false>(now, before, twice_re, minus_norm, acc, fresh);
+    } else {
+        real_block_chains::<REAL_CHAIN_NARROW, true>(now, before, twice_re, minus_norm, acc, fresh);
+    }
+}
+
+/// [`real_block_into`] `C` groups at a time (the last few fewer), inlined
+/// into each version; `REFETCH` as [`real_chain`]'s.
+#[inline(always)]
+fn real_block_chains<const C: usize, const REFETCH: bool>(
     now: &mut [f64],
     before: &mut [f64],
     twice_re: &[f64],
@@ -953,41 +975,31 @@ fn real_block_into(
     let (before, _) = before.as_chunks_mut::<LANES>();
     let (a, _) = twice_re.as_chunks::<LANES>();
     let (b, _) = minus_norm.as_chunks::<LANES>();
-    let whole = now.len() / REAL_CHAIN * REAL_CHAIN;
+    let whole = now.len() / C * C;
     let mut fresh = fresh;
     let mut g = 0;
     while g < whole {
-        let to = g + REAL_CHAIN;
-        if let (Some(x), Some(y), Some(a), Some(b)) = (
-            now[g..to].first_chunk_mut::<REAL_CHAIN>(),
-            before[g..to].first_chunk_mut::<REAL_CHAIN>(),
-            a[g..to].first_chunk::<REAL_CHAIN>(),
-            b[g..to].first_chunk::<REAL_CHAIN>(),
-        ) {
-            if fresh {
-                real_chain::<REAL_CHAIN, true>(x, y, a, b, acc);
-            } else {
-                real_chain::<REAL_CHAIN, false>(x, y, a, b, acc);
-            }
-            fresh = false;
-        }
+        let to = g + C;
+        real_groups::<C, REFETCH>(&mut now[g..to], &mut before[g..to], &a[g..to], &b[g..to], acc, fresh);
+        fresh = false;
         g = to;
     }
     let (x, y, a, b) = (&mut now[whole..], &mut before[whole..], &a[whole..], &b[whole..]);
     match (x.len(), fresh) {
         (0, true) => acc.fill([0.0; LANES]),
         (0, false) => {}
-        (1, _) => real_rest::<1>(x, y, a, b, acc, fresh),
-        (2, _) => real_rest::<2>(x, y, a, b, acc, fresh),
-        (3, _) => real_rest::<3>(x, y, a, b, acc, fresh),
-        (4, _) => real_rest::<4>(x, y, a, b, acc, fresh),
-        _ => real_rest::<5>(x, y, a, b, acc, fresh),
+        (1, _) => real_groups::<1, REFETCH>(x, y, a, b, acc, fresh),
+        (2, _) => real_groups::<2, REFETCH>(x, y, a, b, acc, fresh),
+        (3, _) => real_groups::<3, REFETCH>(x, y, a, b, acc, fresh),
+        (4, _) => real_groups::<4, REFETCH>(x, y, a, b, acc, fresh),
+        _ => real_groups::<5, REFETCH>(x, y, a, b, acc, fresh),
     }
 }
 
-/// The last `G` groups (fewer than a chain) in real form over a block.
+/// The first `G` groups of the slices in real form over a block, writing to
+/// `acc` if `fresh`, else adding to it.
 #[inline(always)]
-fn real_rest<const G: usize>(
+fn real_groups<const G: usize, const REFETCH: bool>(
     now: &mut [[f64; LANES]],
     before: &mut [[f64; LANES]],
     a: &[[f64; LANES]],
@@ -999,46 +1011,66 @@ fn real_rest<const G: usize>(
         (now.first_chunk_mut::<G>(), before.first_chunk_mut::<G>(), a.first_chunk::<G>(), b.first_chunk::<G>())
     {
         if fresh {
-            real_chain::<G, true>(x, y, a, b, acc);
+            real_chain::<G, true, REFETCH>(x, y, a, b, acc);
         } else {
-            real_chain::<G, false>(x, y, a, b, acc);
+            real_chain::<G, false, REFETCH>(x, y, a, b, acc);
         }
     }
 }
 
-/// `G` groups in real form over a block, state in registers; each sample's
-/// bridge force is summed over the groups in order and then added to its
-/// accumulator (written to it, if `WRITE`). The multiply by the older sample
-/// is off the chain of dependent operations: one multiply-add a step on it.
+/// `G` groups in real form over a block, state in registers; each group's
+/// bridge force is added to its sample's accumulator in the gathering's order
+/// (the first group written to it, if `WRITE`), so how the groups are cut
+/// into chains changes no bit. The multiply by the older sample is off the
+/// chain of dependent operations: one multiply-add a step on it. With
+/// `REFETCH` the coefficients are read from memory by every step (the
+/// compiler would otherwise hold them in registers and push the modes' state
+/// out to the stack: with AVX2's 16 registers three groups' state takes 12).
 #[inline(always)]
-fn real_chain<const G: usize, const WRITE: bool>(
+fn real_chain<const G: usize, const WRITE: bool, const REFETCH: bool>(
     now: &mut [[f64; LANES]; G],
     before: &mut [[f64; LANES]; G],
     twice_re: &[[f64; LANES]; G],
     minus_norm: &[[f64; LANES]; G],
     acc: &mut [[f64; LANES]],
 ) {
+    // Two samples a round, the newer and the older sample of each mode taking
+    // turns in the same two places: no copies from one to the other.
     let (mut x, mut y) = (*now, *before);
-    for out in acc.iter_mut() {
-        let mut sum = [0.0; LANES];
-        for g in 0..G {
-            for l in 0..LANES {
-                let next = twice_re[g][l].mul_add(x[g][l], minus_norm[g][l] * y[g][l]);
-                y[g][l] = x[g][l];
-                x[g][l] = next;
-                sum[l] += next;
-            }
-        }
-        for l in 0..LANES {
-            if WRITE {
-                out[l] = sum[l];
-            } else {
-                out[l] += sum[l];
-            }
-        }
+    let (pairs, last) = acc.as_chunks_mut::<2>();
+    for [first, second] in pairs {
+        let (twice_re, minus_norm) =
+            if REFETCH { std::hint::black_box((twice_re, minus_norm)) } else { (twice_re, minus_norm) };
+        real_step::<G, WRITE>(&mut y, &x, twice_re, minus_norm, first);
+        real_step::<G, WRITE>(&mut x, &y, twice_re, minus_norm, second);
+    }
+    if let [out] = last {
+        real_step::<G, WRITE>(&mut y, &x, twice_re, minus_norm, out);
+        std::mem::swap(&mut x, &mut y);
     }
     *now = x;
     *before = y;
+}
+
+/// One sample of [`real_chain`]: `older` (x_(n-1) of each mode) becomes
+/// x_(n+1) from `newer` (x_n), and is summed into `out` in the groups' order.
+#[inline(always)]
+fn real_step<const G: usize, const WRITE: bool>(
+    older: &mut [[f64; LANES]; G],
+    newer: &[[f64; LANES]; G],
+    twice_re: &[[f64; LANES]; G],
+    minus_norm: &[[f64; LANES]; G],
+    out: &mut [f64; LANES],
+) {
+    let mut sum = if WRITE { [0.0; LANES] } else { *out };
+    for g in 0..G {
+        for l in 0..LANES {
+            let next = twice_re[g][l].mul_add(newer[g][l], minus_norm[g][l] * older[g][l]);
+            older[g][l] = next;
+            sum[l] += next;
+        }
+    }
+    *out = sum;
 }
 
 /// Groups of [`LANES`] modes stepped together in the free loop: each mode's step
@@ -1052,8 +1084,14 @@ pub(crate) const CHAIN: usize = 4;
 /// shows; six leave slack (the gathered loop went from 0.75 to 0.93 of the
 /// FMA probe on this machine's AVX-512), eight no longer fit the registers.
 pub(crate) const REAL_CHAIN: usize = 6;
+/// [`REAL_CHAIN`] where a group of [`LANES`] modes takes two vector registers
+/// (AVX2) or four (SSE, NEON) and there are 16 or 32: three groups, their two
+/// samples in 12 of AVX2's 16 registers. Six spilled the state to the stack
+/// every sample: on a Zen 3 (AVX2) the gathered loop took 0.37-0.45 ns per
+/// mode-sample with six groups, 0.14-0.17 with three read this way.
+pub(crate) const REAL_CHAIN_NARROW: usize = 3;
 // (What is left after the whole chains, up to five groups, runs by itself.)
-const _: () = assert!(REAL_CHAIN <= 6);
+const _: () = assert!(REAL_CHAIN <= 6 && REAL_CHAIN_NARROW <= REAL_CHAIN);
 
 /// `to[i] += by[i] * k` for as many as both have, each product rounded before
 /// its sum: [`ModalBank::kick`] (a dulcimer's string with a stroke in play
@@ -1478,6 +1516,37 @@ mod tests {
                 {
                     assert!(x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0), "{x} against {y}");
                 }
+            }
+        }
+    }
+
+    /// [`real_block_into`]'s signature.
+    type RealBlock = fn(&mut [f64], &mut [f64], &[f64], &[f64], &mut [[f64; LANES]], bool);
+
+    #[test]
+    fn the_real_form_loop_gives_the_same_bits_however_many_groups_run_together() {
+        // The wide targets' chains of six with their coefficients held, the
+        // narrow ones' of three read from memory, and one group at a time:
+        // every remainder, written and added, over an odd number of samples.
+        for groups in 0..=2 * REAL_CHAIN + 1 {
+            let n = groups * LANES;
+            let wave = |k: usize, f: f64| (0..n).map(|i| ((i * 7 + k) as f64 * f).sin()).collect::<Vec<f64>>();
+            let (now, before) = (wave(1, 0.37), wave(2, 0.29));
+            let twice_re: Vec<f64> = wave(3, 0.11).iter().map(|v| 1.9 + 0.05 * v).collect();
+            let minus_norm: Vec<f64> = wave(4, 0.13).iter().map(|v| -0.999 + 0.0005 * v).collect();
+            for fresh in [true, false] {
+                let run = |chains: RealBlock| {
+                    let (mut x, mut y) = (now.clone(), before.clone());
+                    let mut acc: Vec<[f64; LANES]> =
+                        (0..FREE_BLOCK - 1).map(|s| std::array::from_fn(|l| (s * LANES + l) as f64 * 1e-3)).collect();
+                    chains(&mut x, &mut y, &twice_re, &minus_norm, &mut acc, fresh);
+                    let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+                    (bits(&x), bits(&y), bits(acc.as_flattened()))
+                };
+                let wide = run(real_block_chains::<REAL_CHAIN, false>);
+                assert!(wide == run(real_block_chains::<REAL_CHAIN_NARROW, true>), "{groups} groups, fresh {fresh}");
+                assert!(wide == run(real_block_chains::<1, false>), "{groups} groups, fresh {fresh}");
+                assert!(wide == run(real_block_into), "{groups} groups, fresh {fresh}");
             }
         }
     }

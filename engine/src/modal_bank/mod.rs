@@ -1331,10 +1331,20 @@ mod tests {
         add_lane_sums(&acc[..13], &mut fast);
         add_lane_sums_portable(&acc[..13], &mut plain);
         assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{fast:?} against {plain:?}");
-        let (mut fast, mut plain) = (start.clone(), start);
+        let (mut fast, mut plain) = (start.clone(), start.clone());
         add_lane_sums(&acc, &mut fast);
         add_lane_sums_portable(&acc, &mut plain);
         assert!(fast.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
+        // AVX's own four at a time and one by one, which AVX-512 leaves the last few samples to.
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx") {
+            for n in [0, 3, 13, crate::CONTROL_BLOCK] {
+                let mut avx = start[..n].to_vec();
+                // SAFETY: AVX was detected just above.
+                unsafe { x86::add_lane_sums_avx(&acc[..n], &mut avx) };
+                assert!(avx.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()), "{n} samples");
+            }
+        }
     }
 
     /// A stiff treble string with modes up to 20 kHz.

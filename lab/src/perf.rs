@@ -210,8 +210,8 @@ pub fn synth_throughput(kind: struck_engine::design::InstrumentKind, audio_s: f6
 /// register of the target (8 f64 lanes with AVX-512, 4 with AVX2, 2 with NEON
 /// and SSE): enough to cover the latency of every FMA unit (4 cycles x 2 units
 /// x a margin) and few enough to stay in the registers. (Chains of 8 lanes
-/// everywhere spilled to the stack with AVX2, and the probe read 0.3-0.55 of
-/// what a Zen 3's units do.)
+/// everywhere spilled to the stack with AVX2: on a Zen 3 the probe read
+/// 1.05-2.0e10 multiply-adds a second where its units do 2.3e10.)
 const PROBE_CHAINS: usize = 12;
 
 /// `rounds` rounds of [`PROBE_CHAINS`] chains of multiply-adds: the chains and

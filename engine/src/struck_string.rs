@@ -482,6 +482,24 @@ impl StruckString {
         })
     }
 
+    /// [`Self::tick`] with a hammer's sub-steps in the baseline's build,
+    /// whatever the machine has (tests compare it with the dispatched one).
+    #[cfg(test)]
+    fn tick_baseline(&mut self) -> Tick {
+        match &mut self.exciter {
+            Exciter::Hammer(rig) => rig.tick_inline(
+                crate::modal_bank::Kernel::Detect,
+                &mut self.bank,
+                &self.audio,
+                &self.fine,
+                self.hold_samples,
+                &mut (),
+            ),
+            _ => None,
+        }
+        .unwrap_or_else(|| self.tick())
+    }
+
     /// Whether a hammer is in or near contact (the string is being sub-stepped).
     pub fn in_contact(&self) -> bool {
         matches!(&self.exciter, Exciter::Hammer(rig) if rig.in_contact())
@@ -586,6 +604,44 @@ mod tests {
         assert!(worst <= 1e-12 * peak, "{worst} against {peak}");
         let (ha, hb) = (stepped.hammer().unwrap(), coasting.hammer().unwrap());
         assert!((ha.position_m - hb.position_m).abs() <= 1e-15 && ha.velocity_m_s == hb.velocity_m_s);
+    }
+
+    /// A hammer's sub-steps give the same bits in every build the machine may
+    /// run them in (AVX-512, AVX2 with FMA, the baseline): a hard and a soft
+    /// felt, elastic and with hysteresis, struck twice into the ringing string.
+    #[test]
+    fn a_strike_steps_the_same_bits_in_every_build() {
+        let felts = [
+            (ContactLaw { stiffness: 4e9, exponent: 3.0 }, None),
+            (
+                ContactLaw { stiffness: 2e8, exponent: 2.3 },
+                Some(crate::exciter::hammer::Hysteresis { epsilon: 0.2, tau_s: 1e-5 }),
+            ),
+        ];
+        for (law, hysteresis) in felts {
+            let spec = HammerSpec::one_of(1, 0.008, law, 4.0, 0.12).with_hysteresis(hysteresis);
+            let mut strings =
+                [(); 2].map(|_| StruckString::new(crate::string::test_string(3e-4, 12_000.0), 48_000.0, 6));
+            let mut sub_stepped = 0;
+            for _ in 0..2 {
+                strings.iter_mut().for_each(|s| s.strike(spec));
+                for t in 0..1500 {
+                    sub_stepped += usize::from(strings[0].in_contact());
+                    let (a, b) = (strings[0].tick(), strings[1].tick_baseline());
+                    let bits = |t: Tick| {
+                        [t.contact_force_n, t.bridge_force_n, t.exciter_position_m.unwrap_or(-1.0), t.string_position_m]
+                            .map(f64::to_bits)
+                    };
+                    assert_eq!(bits(a), bits(b), "sample {t}");
+                }
+            }
+            assert!(sub_stepped > 100, "{sub_stepped} samples sub-stepped");
+            let (a, b) = (strings[0].hammer().unwrap(), strings[1].hammer().unwrap());
+            assert_eq!(
+                (a.position_m.to_bits(), a.velocity_m_s.to_bits()),
+                (b.position_m.to_bits(), b.velocity_m_s.to_bits())
+            );
+        }
     }
 
     /// A strike or pluck at a new point moves the string's tables there in

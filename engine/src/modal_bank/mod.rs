@@ -575,15 +575,7 @@ impl ModalBank {
 
     /// Observe the present state through a drive's observation weights.
     pub fn observe(&self, drive: &DriveTable) -> f64 {
-        let mut acc = [0.0; LANES];
-        let (re, _) = self.re.as_chunks::<LANES>();
-        let (c, _) = drive.observe.as_chunks::<LANES>();
-        for (r, c) in re.iter().zip(c) {
-            for l in 0..LANES {
-                acc[l] = c[l].mul_add(r[l], acc[l]);
-            }
-        }
-        lane_sum(&acc)
+        observe_through(&self.re, &drive.observe)
     }
 
     /// Advance freely (no exciter) over `out.len()` samples, adding the bridge
@@ -687,12 +679,60 @@ impl ModalBank {
         )
     }
 
+    /// [`Self::step_driven`] by the kernel `kernel` names, for a caller
+    /// compiled for that kernel's features (with [`Kernel::Detect`], the one
+    /// the machine has, as [`Self::step_driven`]): inlined there, so is the
+    /// kernel.
+    ///
+    /// # Safety
+    /// The machine has the features of the kernel named (detected at run time).
+    #[inline(always)]
+    pub(crate) unsafe fn step_driven_by(
+        &mut self,
+        kernel: Kernel,
+        step: &StepTable,
+        drive: &DriveTable,
+        previous_input: f64,
+    ) -> (f64, f64) {
+        #[cfg(target_arch = "x86_64")]
+        if kernel != Kernel::Detect {
+            debug_assert_eq!(drive.carry_re.len(), self.re.len());
+            self.run_all();
+            let slices = x86::Driven::of(&mut self.re, &mut self.im, step, drive);
+            // SAFETY: the caller's machine has the kernel's features.
+            let result = unsafe {
+                if kernel == Kernel::Avx512 {
+                    x86::driven_avx512(slices, previous_input)
+                } else {
+                    x86::driven_avx2(slices, previous_input)
+                }
+            };
+            if let Some(result) = result {
+                return result;
+            }
+        }
+        self.step_driven(step, drive, previous_input)
+    }
+
     /// Take back one free step (multiply by 1/p). Exact to rounding; used when a
     /// full step turns out to have run into a contact and must be redone in sub-steps.
     pub fn undo_free_step(&mut self, step: &StepTable) {
         self.run_all();
         undo_step(&mut self.re, &mut self.im, &step.pole_re, &step.pole_im);
     }
+}
+
+/// A driven step's kernel, as [`ModalBank::step_driven_by`] takes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Kernel {
+    /// AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+    /// AVX2 with FMA.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    /// Whichever the machine has.
+    Detect,
 }
 
 /// Sum of an accumulator's lanes in a fixed order (both loops use it, so free and
@@ -889,6 +929,22 @@ fn to_real_form(
         *t = 2.0 * pr;
         *m = -(pr * pr + pi * pi);
     }
+}
+
+/// [`ModalBank::observe`]: compiled for the vector extensions too, where each
+/// multiply-add is one instruction (in the baseline, a call into the maths
+/// library per mode: at each strike, every string's modes; the same bits).
+#[multiversion(targets("x86_64+avx512f+avx512vl+fma", "x86_64+avx2+fma", "aarch64+neon"))]
+fn observe_through(re: &[f64], observe: &[f64]) -> f64 {
+    let mut acc = [0.0; LANES];
+    let (re, _) = re.as_chunks::<LANES>();
+    let (c, _) = observe.as_chunks::<LANES>();
+    for (r, c) in re.iter().zip(c) {
+        for l in 0..LANES {
+            acc[l] = c[l].mul_add(r[l], acc[l]);
+        }
+    }
+    lane_sum(&acc)
 }
 
 /// The imaginary parts of phasors in real form ([`FreeGather::give_back`]).

@@ -97,7 +97,7 @@ impl ContactLaw {
     }
 
     /// Force and dF/dC at a compression, from one power.
-    #[inline]
+    #[inline(always)]
     fn force_and_slope(&self, compression_m: f64) -> (f64, f64) {
         if compression_m > 0.0 {
             let slope_per_alpha = self.stiffness * power(compression_m, self.exponent - 1.0);
@@ -143,37 +143,25 @@ impl ContactLaw {
     /// evaluate the felt once (with a first-order step, which had to wait for
     /// a step under 1e-7, most took two).
     pub fn step(&self, start: Felt, c_hat: f64, w: f64, guess: Option<Guess<'_>>) -> (ContactStep, Felt) {
+        self.step_inline(start, c_hat, w, guess)
+    }
+
+    /// [`Self::step`], inlined into its caller: a strike's sub-steps
+    /// ([`super::HammerRig::tick`]) are compiled for the vector extensions the
+    /// machine has, and the solve with them (the same operations, so the
+    /// same bits; VEX's three operands and, with AVX-512, 32 registers spare
+    /// most of the copies and spills of the baseline's two-operand SSE2).
+    #[inline(always)]
+    pub(crate) fn step_inline(&self, start: Felt, c_hat: f64, w: f64, guess: Option<Guess<'_>>) -> (ContactStep, Felt) {
         let Felt { compression_m: c0, force_n: f0, energy_j: e0 } = start;
         if c0 <= 0.0 && c_hat <= 0.0 {
             let end = Felt { compression_m: c_hat, force_n: 0.0, energy_j: 0.0 };
             return (ContactStep { compression_m: c_hat, step_force_n: 0.0, iterations: 0 }, end);
         }
         let per_exponent = 1.0 / (self.exponent + 1.0);
-        let series = guess.and_then(|g| Series::new(self, g.binomial, g.last_power, g.compression_m));
-        let force_at = |c: f64| -> f64 {
-            if !(c > 0.0) {
-                return 0.0;
-            }
-            match series.as_ref().and_then(|s| s.force_n(c)) {
-                Some(f) => f,
-                None => self.stiffness * power(c, self.exponent),
-            }
-        };
-        // The mean force between c0 and c, its derivative with respect to c,
-        // 1 / (c - c0) (held at 1 / (NEAR c) near c0) for the last step and
-        // the convergence floor, and the felt at c (unless c is that near c0).
-        let mean = |c: f64| -> (f64, f64, f64, Option<Felt>) {
-            let scale = c0.abs().max(c.abs());
-            if (c - c0).abs() <= NEAR * scale {
-                let (f, slope) = self.force_and_slope(0.5 * (c0 + c));
-                (f, 0.5 * slope, 1.0 / (NEAR * scale), None)
-            } else {
-                let f = force_at(c);
-                let e = f * c.max(0.0) * per_exponent;
-                let per_gap = 1.0 / (c - c0);
-                let q = (e - e0) * per_gap;
-                (q, (f - q) * per_gap, per_gap, Some(Felt { compression_m: c, force_n: f, energy_j: e }))
-            }
+        let series = match guess {
+            Some(g) => Series::new(self, g.binomial, g.last_power, g.compression_m),
+            None => None,
         };
         // The felt at the last point where g was evaluated away from c0.
         let mut last;
@@ -193,7 +181,7 @@ impl ContactLaw {
         let mut iterations = 0;
         loop {
             iterations += 1;
-            let (mean_force, dq, per_gap, felt) = mean(c);
+            let (mean_force, dq, per_gap, felt) = self.mean_from(series.as_ref(), (c0, e0, per_exponent), c);
             q = mean_force;
             last = felt;
             let g = c - c_hat + w * q;
@@ -263,6 +251,45 @@ impl ContactLaw {
     }
 }
 
+impl ContactLaw {
+    /// K c^alpha, from the felt's series about the step's anchor where it
+    /// reaches, else from a power.
+    #[inline(always)]
+    fn force_with(&self, series: Option<&Series<'_>>, c: f64) -> f64 {
+        if !(c > 0.0) {
+            return 0.0;
+        }
+        match series.map(|s| s.force_n(c)) {
+            Some(Some(f)) => f,
+            _ => self.stiffness * power(c, self.exponent),
+        }
+    }
+
+    /// The mean force between c0 and c (the felt at c0 holding `e0`, and
+    /// `per_exponent` 1 / (alpha + 1)), its derivative with respect to c,
+    /// 1 / (c - c0) (held at 1 / (NEAR c) near c0) for the last step and the
+    /// convergence floor, and the felt at c (unless c is that near c0).
+    #[inline(always)]
+    fn mean_from(
+        &self,
+        series: Option<&Series<'_>>,
+        (c0, e0, per_exponent): (f64, f64, f64),
+        c: f64,
+    ) -> (f64, f64, f64, Option<Felt>) {
+        let scale = c0.abs().max(c.abs());
+        if (c - c0).abs() <= NEAR * scale {
+            let (f, slope) = self.force_and_slope(0.5 * (c0 + c));
+            (f, 0.5 * slope, 1.0 / (NEAR * scale), None)
+        } else {
+            let f = self.force_with(series, c);
+            let e = f * c.max(0.0) * per_exponent;
+            let per_gap = 1.0 / (c - c0);
+            let q = (e - e0) * per_gap;
+            (q, (f - q) * per_gap, per_gap, Some(Felt { compression_m: c, force_n: f, energy_j: e }))
+        }
+    }
+}
+
 /// How the mean force moves over the last step, taken along g's cubic: the
 /// Newton `step` from the last point, where the mean force's derivatives are
 /// `dq`, `2 half_q2` and `6 sixth_q3`, the compliance `w`, and `per_slope`
@@ -283,7 +310,7 @@ impl ContactLaw {
 /// operations: solving the cubic for s first (three turns of its fixed
 /// point), then moving the force, took three times as many, one after the
 /// other.
-#[inline]
+#[inline(always)]
 fn last_move(step: f64, dq: f64, half_q2: f64, sixth_q3: f64, w: f64, per_slope: f64) -> f64 {
     let a = w * half_q2 * per_slope;
     // a A - B
@@ -347,6 +374,7 @@ struct Series<'a> {
 }
 
 impl<'a> Series<'a> {
+    #[inline(always)]
     fn new(law: &ContactLaw, binomial: &'a Binomial, last: &LastPower, anchor_m: f64) -> Option<Self> {
         if !(anchor_m > 0.0 && anchor_m.is_finite()) {
             return None;
@@ -363,7 +391,7 @@ impl<'a> Series<'a> {
     }
 
     /// K c^alpha, if c is within reach of the anchor.
-    #[inline]
+    #[inline(always)]
     fn force_n(&self, c: f64) -> Option<f64> {
         let x = (c - self.anchor_m) * self.per_anchor;
         if !(x.abs() <= SERIES_REACH) {

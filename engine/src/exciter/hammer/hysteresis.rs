@@ -132,6 +132,7 @@ impl Memory {
     /// One sub-step, as [`ContactLaw::step`] (same arguments; `guess.force_n` a
     /// guess at this force, not the elastic one), and the memory moved on. The
     /// step's force is the hysteretic one.
+    #[inline(always)]
     pub fn step(
         &mut self,
         law: &ContactLaw,
@@ -149,7 +150,7 @@ impl Memory {
         let scale = 1.0 - self.epsilon * (1.0 - self.mean_weight);
         let offset_n = self.epsilon * self.mean_weight * self.force_n;
         let elastic_guess = guess.map(|g| Guess { force_n: (g.force_n + offset_n) / scale, ..g });
-        let (mut step, mut end) = law.step(start, c_hat + w * offset_n, w * scale, elastic_guess);
+        let (mut step, mut end) = law.step_inline(start, c_hat + w * offset_n, w * scale, elastic_guess);
         let mut force = scale * step.step_force_n - offset_n;
         if !(force >= 0.0) {
             // The felt would pull: no force, and the compression is what it would be

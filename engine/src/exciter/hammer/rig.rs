@@ -25,7 +25,7 @@ use super::contact::{Binomial, ContactStep, Felt, Guess, LastPower};
 use super::hysteresis::Memory;
 use super::{Hammer, HammerSpec};
 use crate::exciter::{ContactObserver, Tick, drive_table};
-use crate::modal_bank::{DriveTable, Hold, ModalBank, StepTable};
+use crate::modal_bank::{DriveTable, Hold, Kernel, ModalBank, StepTable};
 use crate::string::StringModes;
 use crate::string::residual::Residual;
 
@@ -317,9 +317,71 @@ impl HammerRig {
     /// Advance one sample with the strike in play, telling `observer` about every
     /// (sub)step; None (nothing done) when no strike is in play.
     ///
+    /// Compiled for AVX-512 and for AVX2 with FMA as well as for the baseline,
+    /// the one the machine runs chosen here: the felt's solve is scalar code,
+    /// one long chain of dependent operations with many values alive, and the
+    /// baseline's SSE2 spends much of a sub-step copying and spilling them.
+    /// The arithmetic is the same in every version (nothing fused that the
+    /// source does not fuse), so are the bits.
+    ///
     /// Allocates: no.
     pub fn tick(
         &mut self,
+        bank: &mut ModalBank,
+        audio: &StepTable,
+        fine: &[Substep],
+        hold_samples: usize,
+        observer: &mut impl ContactObserver,
+    ) -> Option<Tick> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") {
+                // SAFETY: the features the version is compiled for were detected just above.
+                return unsafe { self.tick_avx512(bank, audio, fine, hold_samples, observer) };
+            }
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                // SAFETY: as above.
+                return unsafe { self.tick_avx2(bank, audio, fine, hold_samples, observer) };
+            }
+        }
+        self.tick_inline(Kernel::Detect, bank, audio, fine, hold_samples, observer)
+    }
+
+    /// [`Self::tick`] for AVX-512 (its 32 registers).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+    fn tick_avx512(
+        &mut self,
+        bank: &mut ModalBank,
+        audio: &StepTable,
+        fine: &[Substep],
+        hold_samples: usize,
+        observer: &mut impl ContactObserver,
+    ) -> Option<Tick> {
+        self.tick_inline(Kernel::Avx512, bank, audio, fine, hold_samples, observer)
+    }
+
+    /// [`Self::tick`] for AVX2 with FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn tick_avx2(
+        &mut self,
+        bank: &mut ModalBank,
+        audio: &StepTable,
+        fine: &[Substep],
+        hold_samples: usize,
+        observer: &mut impl ContactObserver,
+    ) -> Option<Tick> {
+        self.tick_inline(Kernel::Avx2, bank, audio, fine, hold_samples, observer)
+    }
+
+    /// [`Self::tick`]'s body, inlined into each version, the driven step's
+    /// `kernel` with it (the baseline's, for tests that compare them, with
+    /// [`Kernel::Detect`]).
+    #[inline(always)]
+    pub(crate) fn tick_inline(
+        &mut self,
+        kernel: Kernel,
         bank: &mut ModalBank,
         audio: &StepTable,
         fine: &[Substep],
@@ -361,7 +423,8 @@ impl HammerRig {
         let mut any_force = false;
         let mut tick = Tick::default();
         for _ in 0..substeps {
-            let (y_hat, bridge_hat) = bank.step_driven(sub, t_sub, d.force_n);
+            // SAFETY: `kernel` is one the machine has (see `Self::tick`).
+            let (y_hat, bridge_hat) = unsafe { bank.step_driven_by(kernel, sub, t_sub, d.force_n) };
             let eta_hat = d.hammer.predict_m(h);
             let c_hat = eta_hat - y_hat - relax * d.residual_m;
             // The courses of force and compression so far, carried on by a quartic
@@ -380,7 +443,7 @@ impl HammerRig {
             };
             let law = &d.hammer.spec.law;
             let (ContactStep { compression_m, step_force_n: force, .. }, felt) = match d.memory.as_mut() {
-                None => law.step(d.felt, c_hat, compliance, Some(guess)),
+                None => law.step_inline(d.felt, c_hat, compliance, Some(guess)),
                 Some(memory) => memory.step(law, d.felt, c_hat, compliance, Some(guess)),
             };
             d.earlier_force_n = [d.force_n, f1, f2, f3];

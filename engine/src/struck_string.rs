@@ -488,22 +488,25 @@ impl StruckString {
         })
     }
 
-    /// [`Self::tick`] with a hammer's sub-steps in the baseline's build,
-    /// whatever the machine has (tests compare it with the dispatched one).
+    /// [`Self::tick`] with a hammer's sub-steps in the baseline's build, or
+    /// (`avx2`) in AVX2's, whatever the machine would choose (tests compare
+    /// them with the dispatched one; AVX2's only where the machine has it).
     #[cfg(test)]
-    fn tick_baseline(&mut self) -> Tick {
-        match &mut self.exciter {
-            Exciter::Hammer(rig) => rig.tick_inline(
-                crate::modal_bank::Kernel::Detect,
-                &mut self.bank,
-                &self.audio,
-                &self.fine,
-                self.hold_samples,
-                &mut (),
-            ),
+    fn tick_built_for(&mut self, avx2: bool) -> Tick {
+        let (bank, audio, fine, hold) = (&mut self.bank, &self.audio, &self.fine, self.hold_samples);
+        let ticked = match &mut self.exciter {
+            #[cfg(target_arch = "x86_64")]
+            Exciter::Hammer(rig) if avx2 => {
+                assert!(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"));
+                // SAFETY: the features were checked just above.
+                unsafe { rig.tick_avx2(bank, audio, fine, hold, &mut ()) }
+            }
+            Exciter::Hammer(rig) => {
+                rig.tick_inline(crate::modal_bank::Kernel::Detect, bank, audio, fine, hold, &mut ())
+            }
             _ => None,
-        }
-        .unwrap_or_else(|| self.tick())
+        };
+        ticked.unwrap_or_else(|| self.tick())
     }
 
     /// Whether a hammer is in or near contact (the string is being sub-stepped).
@@ -659,19 +662,25 @@ mod tests {
         ];
         for (law, hysteresis) in felts {
             let spec = HammerSpec::one_of(1, 0.008, law, 4.0, 0.12).with_hysteresis(hysteresis);
+            #[cfg(target_arch = "x86_64")]
+            let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+            #[cfg(not(target_arch = "x86_64"))]
+            let avx2 = false;
             let mut strings =
-                [(); 2].map(|_| StruckString::new(crate::string::test_string(3e-4, 12_000.0), 48_000.0, 6));
+                [(); 3].map(|_| StruckString::new(crate::string::test_string(3e-4, 12_000.0), 48_000.0, 6));
             let mut sub_stepped = 0;
             for _ in 0..2 {
                 strings.iter_mut().for_each(|s| s.strike(spec));
                 for t in 0..1500 {
                     sub_stepped += usize::from(strings[0].in_contact());
-                    let (a, b) = (strings[0].tick(), strings[1].tick_baseline());
+                    let (a, b) = (strings[0].tick(), strings[1].tick_built_for(false));
+                    let c = if avx2 { strings[2].tick_built_for(true) } else { a };
                     let bits = |t: Tick| {
                         [t.contact_force_n, t.bridge_force_n, t.exciter_position_m.unwrap_or(-1.0), t.string_position_m]
                             .map(f64::to_bits)
                     };
-                    assert_eq!(bits(a), bits(b), "sample {t}");
+                    assert_eq!(bits(a), bits(b), "sample {t}: the baseline's");
+                    assert_eq!(bits(a), bits(c), "sample {t}: AVX2's");
                 }
             }
             assert!(sub_stepped > 100, "{sub_stepped} samples sub-stepped");

@@ -364,7 +364,7 @@ impl HammerRig {
     /// [`Self::tick`] for AVX2 with FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn tick_avx2(
+    pub(crate) fn tick_avx2(
         &mut self,
         bank: &mut ModalBank,
         audio: &StepTable,

@@ -502,7 +502,7 @@ impl StruckString {
                 unsafe { rig.tick_avx2(bank, audio, fine, hold, &mut ()) }
             }
             Exciter::Hammer(rig) => {
-                rig.tick_inline(crate::modal_bank::Kernel::Detect, bank, audio, fine, hold, &mut ())
+                rig.tick_inline(crate::modal_bank::Kernel::detected(), bank, audio, fine, hold, &mut ())
             }
             _ => None,
         };

@@ -647,45 +647,17 @@ impl ModalBank {
     ///
     /// Allocates: no. Realtime-safe.
     pub fn step_driven(&mut self, step: &StepTable, drive: &DriveTable, previous_input: f64) -> (f64, f64) {
-        debug_assert_eq!(drive.carry_re.len(), self.re.len());
-        self.run_all();
-        #[cfg(target_arch = "x86_64")]
-        {
-            let avx512 = is_x86_feature_detected!("avx512f");
-            if avx512 || (is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
-                let slices = x86::Driven::of(&mut self.re, &mut self.im, step, drive);
-                // SAFETY: the features each kernel is compiled for were detected just above.
-                let result = unsafe {
-                    if avx512 {
-                        x86::driven_avx512(slices, previous_input)
-                    } else {
-                        x86::driven_avx2(slices, previous_input)
-                    }
-                };
-                if let Some(result) = result {
-                    return result;
-                }
-            }
-        }
-        driven_step(
-            &mut self.re,
-            &mut self.im,
-            &step.pole_re,
-            &step.pole_im,
-            &drive.carry_re,
-            &drive.carry_im,
-            &drive.observe,
-            previous_input,
-        )
+        // SAFETY: the kernel is the one the machine has.
+        unsafe { self.step_driven_by(Kernel::detected(), step, drive, previous_input) }
     }
 
-    /// [`Self::step_driven`] by the kernel `kernel` names, for a caller
-    /// compiled for that kernel's features (with [`Kernel::Detect`], the one
-    /// the machine has, as [`Self::step_driven`]): inlined there, so is the
-    /// kernel.
+    /// [`Self::step_driven`] by the kernel `kernel` names, inlined into its
+    /// caller: a caller compiled for that kernel's features inlines the
+    /// kernel too.
     ///
     /// # Safety
-    /// The machine has the features of the kernel named (detected at run time).
+    /// The machine has the features of the kernel named (as
+    /// [`Kernel::detected`] finds them).
     #[inline(always)]
     pub(crate) unsafe fn step_driven_by(
         &mut self,
@@ -694,10 +666,10 @@ impl ModalBank {
         drive: &DriveTable,
         previous_input: f64,
     ) -> (f64, f64) {
+        debug_assert_eq!(drive.carry_re.len(), self.re.len());
+        self.run_all();
         #[cfg(target_arch = "x86_64")]
-        if kernel != Kernel::Detect {
-            debug_assert_eq!(drive.carry_re.len(), self.re.len());
-            self.run_all();
+        if kernel != Kernel::Portable {
             let slices = x86::Driven::of(&mut self.re, &mut self.im, step, drive);
             // SAFETY: the caller's machine has the kernel's features.
             let result = unsafe {
@@ -711,7 +683,16 @@ impl ModalBank {
                 return result;
             }
         }
-        self.step_driven(step, drive, previous_input)
+        driven_step(
+            &mut self.re,
+            &mut self.im,
+            &step.pole_re,
+            &step.pole_im,
+            &drive.carry_re,
+            &drive.carry_im,
+            &drive.observe,
+            previous_input,
+        )
     }
 
     /// Take back one free step (multiply by 1/p). Exact to rounding; used when a
@@ -731,8 +712,24 @@ pub(crate) enum Kernel {
     /// AVX2 with FMA.
     #[cfg(target_arch = "x86_64")]
     Avx2,
-    /// Whichever the machine has.
-    Detect,
+    /// The portable loop.
+    Portable,
+}
+
+impl Kernel {
+    /// The fastest kernel this machine has.
+    pub(crate) fn detected() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f") {
+                return Self::Avx512;
+            }
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                return Self::Avx2;
+            }
+        }
+        Self::Portable
+    }
 }
 
 /// Sum of an accumulator's lanes in a fixed order (both loops use it, so free and

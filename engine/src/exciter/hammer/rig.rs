@@ -344,7 +344,7 @@ impl HammerRig {
                 return unsafe { self.tick_avx2(bank, audio, fine, hold_samples, observer) };
             }
         }
-        self.tick_inline(Kernel::Detect, bank, audio, fine, hold_samples, observer)
+        self.tick_inline(Kernel::detected(), bank, audio, fine, hold_samples, observer)
     }
 
     /// [`Self::tick`] for AVX-512 (its 32 registers).
@@ -377,7 +377,7 @@ impl HammerRig {
 
     /// [`Self::tick`]'s body, inlined into each version, the driven step's
     /// `kernel` with it (the baseline's, for tests that compare them, with
-    /// [`Kernel::Detect`]).
+    /// [`Kernel::detected`]).
     #[inline(always)]
     pub(crate) fn tick_inline(
         &mut self,

@@ -14,17 +14,31 @@ use struck_engine::string::damping::Damping;
 use struck_engine::string::{Mass, Mode, Stiffness, StringModes, StringSpec, Tuning};
 use struck_engine::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
-/// The processor's model name (from /proc/cpuinfo where there is one).
+/// The processor's model name, with its family and model numbers where
+/// /proc/cpuinfo gives them (one name covers several generations: "AMD EPYC"
+/// has been a Zen 3, a Zen 4 and a Zen 5, whose figures differ by half).
 pub fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|info| {
-            info.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
+        .and_then(|info| cpu_identity(&info))
         .unwrap_or_else(|| std::env::consts::ARCH.to_string())
+}
+
+/// The first processor's "model name" in a /proc/cpuinfo text, followed by
+/// "(family F, model M)" when both numbers are there.
+fn cpu_identity(info: &str) -> Option<String> {
+    let first = info.split("\n\n").next()?;
+    let field = |name: &str| {
+        first.lines().find_map(|l| {
+            let (key, value) = l.split_once(':')?;
+            (key.trim() == name).then(|| value.trim().to_string())
+        })
+    };
+    let name = field("model name")?;
+    Some(match (field("cpu family"), field("model")) {
+        (Some(family), Some(model)) => format!("{name} (family {family}, model {model})"),
+        _ => name,
+    })
 }
 
 /// Which compiled version of the inner loops this processor runs.
@@ -261,4 +275,20 @@ pub fn fma_probe(min_time: Duration) -> f64 {
         fmas += done;
     }
     fmas as f64 / start.elapsed().as_secs_f64()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu_identity;
+
+    #[test]
+    fn the_processor_is_named_with_its_family_and_model() {
+        let info = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 25\nmodel\t\t: 17\n\
+                    model name\t: AMD EPYC\nstepping\t: 1\n\nprocessor\t: 1\ncpu family\t: 26\nmodel\t\t: 2\n\
+                    model name\t: Other\n";
+        assert_eq!(cpu_identity(info).as_deref(), Some("AMD EPYC (family 25, model 17)"));
+        // An Arm machine's cpuinfo has neither a family nor a model name.
+        assert_eq!(cpu_identity("processor\t: 0\nBogoMIPS\t: 50.00\nCPU part\t: 0xd0c\n"), None);
+        assert_eq!(cpu_identity("model name\t: Some CPU\n").as_deref(), Some("Some CPU"));
+    }
 }

@@ -499,6 +499,25 @@ fn bench_json_holds_every_figure_flat_and_nested() {
     for dotted in ["idle.load_fraction", "after_release.load_fraction"] {
         number(dotted);
     }
+    // With a helper thread on a second core, where the machine has one (null if not).
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if cores > 1 {
+        assert_eq!(figure("full_keyboard_all_helper.threads"), 2);
+        for dotted in [
+            "full_keyboard_all_helper.load_fraction",
+            "full_keyboard_all_helper.worst_block_fraction",
+            "full_keyboard_all_helper.chord10_block_fraction",
+            "full_keyboard_all_helper.chord20_block_fraction",
+        ] {
+            assert!(number(dotted) > 0.0, "{dotted} should be positive: {text}");
+        }
+        assert!(
+            number("full_keyboard_all_helper.worst_block_fraction")
+                >= number("full_keyboard_all_helper.chord20_block_fraction")
+        );
+    } else {
+        assert!(figure("full_keyboard_all_helper").is_null(), "{text}");
+    }
     assert!(number("full_keyboard.running_modes_mean") <= number("full_keyboard.modes"));
     assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord10_block_fraction"));
     assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord20_block_fraction"));

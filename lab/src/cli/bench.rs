@@ -11,7 +11,7 @@
 use std::io::Write;
 use std::time::Duration;
 
-use crate::perf::workload::Extras;
+use crate::perf::workload::{Cores, Extras};
 use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
 use struck_engine::design::InstrumentKind;
@@ -139,7 +139,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The full keyboard, held and released.
     out.blank();
-    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off);
+    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One);
     let period_ms = 1e3 * BLOCK as f64 / SAMPLE_RATE_HZ;
     out.line(format!(
         "full keyboard: {PIANO_KEYS} keys struck one per block and held {:.2} s, pedal down; a 10-key chord (velocity 102) halfway, a 20-key one (120) at three quarters",
@@ -184,7 +184,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The same with everything on.
     out.blank();
-    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On);
+    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One);
     out.line(
         "full keyboard, everything on: the same with sympathetic strings, phantom partials and the action's sounds"
             .to_string(),
@@ -207,6 +207,23 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     }
     out.line(after_release(&all));
 
+    // The same again with a second core (no goal: the plugin uses one).
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let helped = (cores > 1).then(|| workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::TwoShared));
+    if let Some(helped) = &helped {
+        out.line(
+            "  with a helper thread on a second core taking half of every piece of work (what a second core would give the plugin, which uses one; no goal):"
+                .to_string(),
+        );
+        for (label, figure) in [
+            ("the 10-key chord's worst block", of_period(helped.chord_block_fraction)),
+            ("the 20-key chord's", of_period(helped.chord20_block_fraction)),
+            ("load (clock time over audio time)", percent(helped.load_fraction)),
+        ] {
+            out.line(format!("    {label:<width$}{figure}", width = LABEL_WIDTH - 4));
+        }
+    }
+
     // The 32-note chord, offline.
     out.blank();
     let (chord32_factor, chord32_keys, one) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, false);
@@ -216,7 +233,6 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let pass = goals.check("chord32", chord32_factor, AtLeast, CHORD32_FACTOR_MIN);
     out.goal("speed", format!("{chord32_factor:.1}x real time"), format!(">= {CHORD32_FACTOR_MIN:.0}x"), pass);
     // The same with a second core (as `struck render` does by default).
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = if cores > 1 { 2 } else { 1 };
     let (threads_factor, _, shared) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, threads > 1);
     let identical = one.len() == shared.len() && one.iter().zip(&shared).all(|(a, b)| a.to_bits() == b.to_bits());
@@ -306,6 +322,13 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "chord20_block_fraction": all.chord20_block_fraction,
                 "after_release_load_fraction": all.after_release_load_fraction,
             },
+            "full_keyboard_all_helper": helped.map(|h| json!({
+                "threads": 2,
+                "load_fraction": h.load_fraction,
+                "worst_block_fraction": h.worst_block_fraction,
+                "chord10_block_fraction": h.chord_block_fraction,
+                "chord20_block_fraction": h.chord20_block_fraction,
+            })),
             "chord10": {
                 "keys": workload::CHORD10.len(),
                 "velocity": (workload::VELOCITY * 127.0).round() as u8,

@@ -65,7 +65,10 @@ enum Command {
                             chord (15 keys) held 10 s rendered offline (at least 100x real time); the piano \
                             idle (under 1 % of a core); and a C2 string while its hammer is on it \
                             (mode-steps per second, 8 sub-steps each with its implicit contact \
-                            solve). Each workload runs --runs times and the fastest is kept; \
+                            solve). With two cores or more, the full keyboard with everything on \
+                            runs again with a helper thread taking half of every piece of work \
+                            (full_keyboard_all_helper; no goal: the plugin uses one core). \
+                            Each workload runs --runs times and the fastest is kept; \
                             --seconds scales the run. Every figure is printed with its goal and \
                             PASS or MISS (a miss is not an error); --json writes one JSON object \
                             instead, every figure both nested and under its dotted name \

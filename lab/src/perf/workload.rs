@@ -130,9 +130,21 @@ pub struct KeyboardRun {
     pub release_s: f64,
 }
 
+/// Who computes a real-time workload's blocks: the audio thread alone (as
+/// the plugin does), or with a helper thread on a second core that takes half
+/// of every piece of work (the offline renders' sharing, every piece handed
+/// over, the audio thread waiting on the helper each block: what the plugin
+/// would get from a second core, which it does not use).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cores {
+    One,
+    TwoShared,
+}
+
 /// The full keyboard held for `held_s` seconds, then released for `release_s`,
-/// fastest block of `runs` runs, with or without the [`Extras`].
-pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -> KeyboardRun {
+/// fastest block of `runs` runs, with or without the [`Extras`], on one
+/// thread or shared with a helper ([`Cores`]).
+pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras, cores: Cores) -> KeyboardRun {
     let period_s = BLOCK as f64 / SAMPLE_RATE_HZ;
     let held_blocks = ((held_s / period_s).ceil() as usize).max(2 * 88);
     let release_blocks = ((release_s / period_s).ceil() as usize).max(1);
@@ -148,6 +160,9 @@ pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras) -
     let mut events = Vec::with_capacity(128);
     for run in 0..runs.max(1) {
         let (mut synth, _scope) = piano(128, extras);
+        if cores == Cores::TwoShared {
+            synth.share_all_work().expect("a helper thread starts");
+        }
         modes = synth.instrument().mode_count();
         let mut times = Vec::with_capacity(held_blocks + release_blocks);
         for b in 0..held_blocks + release_blocks {

@@ -432,8 +432,9 @@ impl Out {
     }
 
     fn goal(&self, label: &str, measured: String, goal: String, pass: bool) {
+        // (A figure wider than its column still stands apart from its goal.)
         self.line(format!(
-            "  {label:<width$}{measured:<24}goal {goal:<20}{}",
+            "  {label:<width$}{measured:<23} goal {goal:<20}{}",
             if pass { "PASS" } else { "MISS" },
             width = LABEL_WIDTH - 2
         ));

@@ -77,6 +77,47 @@ pub fn key_bed_force_n(n: usize, speed_m_s: f64, sample_rate_hz: f64) -> f64 {
     KEY_BED_TO_BOARD * peak * 0.5 * (1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos())
 }
 
+/// The key bed's pulse at one sample rate, its raised cosine worked out once:
+/// [`key_bed_force_n`] to the bit, without a cosine a sample (a 20-key chord's
+/// keys took some 2 % of its block on them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeyBedPulse {
+    /// 1 - cos(2 pi t / T) at each sample of the pulse.
+    shape: Box<[f64]>,
+}
+
+impl KeyBedPulse {
+    /// The pulse at `sample_rate_hz`. Allocates.
+    pub fn new(sample_rate_hz: f64) -> Self {
+        let fs = if sample_rate_hz.is_finite() && sample_rate_hz > 0.0 { sample_rate_hz } else { f64::NAN };
+        let shape = (0..)
+            .map(|n| n as f64 / fs)
+            .take_while(|&t| t < KEY_BED_PULSE_S)
+            .map(|t| 1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos())
+            .collect();
+        Self { shape }
+    }
+
+    /// Samples the pulse lasts.
+    pub fn len(&self) -> usize {
+        self.shape.len()
+    }
+
+    /// Whether it lasts no sample at all.
+    pub fn is_empty(&self) -> bool {
+        self.shape.is_empty()
+    }
+
+    /// [`key_bed_force_n`] at sample `n` for a hammer speed `speed_m_s`.
+    #[inline]
+    pub fn force_n(&self, n: usize, speed_m_s: f64) -> f64 {
+        let Some(&shape) = self.shape.get(n) else { return 0.0 };
+        let momentum = KEY_MASS_KG * speed_m_s / ACTION_RATIO;
+        let peak = 2.0 * momentum / KEY_BED_PULSE_S;
+        KEY_BED_TO_BOARD * peak * 0.5 * shape
+    }
+}
+
 /// The velocity kick each of `string`'s modes takes from an impulse of
 /// `impulse_n_s` at `position` (fraction of its length from the bridge)
 /// spread over a soft contact of `contact_s`: mode n's velocity moves by
@@ -131,6 +172,23 @@ mod tests {
         assert!((pulse_spectrum(0.0, 0.004) - 1.0).abs() < 1e-12);
         assert!(pulse_spectrum(500.0, 0.004) < 1e-6);
         assert!(pulse_spectrum(100.0, 0.004) > 0.8);
+    }
+
+    #[test]
+    fn the_worked_out_pulse_is_the_formula_to_the_bit() {
+        for fs in [44_100.0, 48_000.0, 96_000.0, 192_000.0, 8_000.0] {
+            let pulse = KeyBedPulse::new(fs);
+            assert_eq!(pulse.len(), (0..).take_while(|&n| (n as f64 / fs) < KEY_BED_PULSE_S).count());
+            for speed in [0.1, 1.0, 3.0, 7.0] {
+                for n in 0..pulse.len() + 10 {
+                    let (table, formula) = (pulse.force_n(n, speed), key_bed_force_n(n, speed, fs));
+                    assert_eq!(table.to_bits(), formula.to_bits(), "fs {fs}, speed {speed}, sample {n}");
+                }
+            }
+        }
+        assert!(KeyBedPulse::new(f64::INFINITY).is_empty());
+        assert!(KeyBedPulse::new(f64::NAN).is_empty());
+        assert!(KeyBedPulse::new(0.0).is_empty());
     }
 
     #[test]

@@ -257,6 +257,8 @@ pub(crate) struct Key {
     /// Its strings bear on the body (not the seed's rigid bridge).
     on_body: bool,
     bed_pulse: Option<(usize, f64)>,
+    /// The key bed's pulse at its sample rate.
+    bed: action::KeyBedPulse,
     noise: ActionNoise,
     /// Its partials as the other strings on the body meet them (empty: strings
     /// on the seed's rigid bridge, or a tangent's, which the listing damps).
@@ -480,6 +482,7 @@ impl Key {
             key_bed,
             on_body,
             bed_pulse: None,
+            bed: action::KeyBedPulse::new(sample_rate_hz),
             noise: ActionNoise::default(),
             ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
@@ -1398,17 +1401,14 @@ impl Key {
 
     /// Add the key bed's pulse, while it lasts, to `out` (at output gain).
     fn add_key_bed(&mut self, out: &mut [f64]) {
-        let (Some((start, speed)), Some(fs)) = (self.bed_pulse, self.strings.first().map(StruckString::sample_rate_hz))
-        else {
-            return;
-        };
+        let Some((start, speed)) = self.bed_pulse else { return };
         // The key's own volume (a note expression) takes its knock with it.
         let gain = self.gain_per_n * self.volume * self.fade * self.noise.key_bed;
         for (t, o) in out.iter_mut().enumerate() {
-            *o += gain * action::key_bed_force_n(start + t, speed, fs);
+            *o += gain * self.bed.force_n(start + t, speed);
         }
         let done = start + out.len();
-        self.bed_pulse = (done as f64 / fs < action::KEY_BED_PULSE_S).then_some((done, speed));
+        self.bed_pulse = (done < self.bed.len()).then_some((done, speed));
     }
 
     /// Add the key's summed bridge force (N) over `out.len()` samples to `out`,

@@ -111,10 +111,27 @@ impl KeyBedPulse {
     /// [`key_bed_force_n`] at sample `n` for a hammer speed `speed_m_s`.
     #[inline]
     pub fn force_n(&self, n: usize, speed_m_s: f64) -> f64 {
-        let Some(&shape) = self.shape.get(n) else { return 0.0 };
+        self.shape.get(n).map_or(0.0, |&shape| Self::height_n(speed_m_s) * shape)
+    }
+
+    /// The pulse's samples from `start` on, to `out.len()`, each times `gain`
+    /// added in: a struck key's stretch of [`Self::force_n`]. Returns the
+    /// sample after the stretch.
+    pub fn add(&self, start: usize, speed_m_s: f64, gain: f64, out: &mut [f64]) -> usize {
+        let height_n = Self::height_n(speed_m_s);
+        let shape = self.shape.get(start..).unwrap_or(&[]);
+        for (o, &s) in out.iter_mut().zip(shape) {
+            *o += gain * (height_n * s);
+        }
+        start + out.len()
+    }
+
+    /// Half the pulse's peak on the board for a hammer speed `speed_m_s`, N:
+    /// a raised cosine of area m v peaks at 2 m v / T.
+    fn height_n(speed_m_s: f64) -> f64 {
         let momentum = KEY_MASS_KG * speed_m_s / ACTION_RATIO;
         let peak = 2.0 * momentum / KEY_BED_PULSE_S;
-        KEY_BED_TO_BOARD * peak * 0.5 * shape
+        KEY_BED_TO_BOARD * peak * 0.5
     }
 }
 
@@ -185,6 +202,20 @@ mod tests {
                     assert_eq!(table.to_bits(), formula.to_bits(), "fs {fs}, speed {speed}, sample {n}");
                 }
             }
+        }
+        // A key's stretches of it, added in at a gain: the formula's sum, to the bit.
+        let pulse = KeyBedPulse::new(48_000.0);
+        for (start, len) in [(0, 64), (0, 23), (23, 64), (87, 64), (95, 1), (96, 8), (200, 4)] {
+            let (gain, speed) = (0.37, 2.5);
+            let mut out: Vec<f64> = (0..len).map(|t| 1e-3 * t as f64).collect();
+            let mut expected = out.clone();
+            assert_eq!(pulse.add(start, speed, gain, &mut out), start + len);
+            for (t, e) in expected.iter_mut().enumerate() {
+                if start + t < pulse.len() {
+                    *e += gain * key_bed_force_n(start + t, speed, 48_000.0);
+                }
+            }
+            assert!(out.iter().zip(&expected).all(|(a, b)| a.to_bits() == b.to_bits()), "from {start}, {len}");
         }
         assert!(KeyBedPulse::new(f64::INFINITY).is_empty());
         assert!(KeyBedPulse::new(f64::NAN).is_empty());

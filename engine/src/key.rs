@@ -1404,10 +1404,7 @@ impl Key {
         let Some((start, speed)) = self.bed_pulse else { return };
         // The key's own volume (a note expression) takes its knock with it.
         let gain = self.gain_per_n * self.volume * self.fade * self.noise.key_bed;
-        for (t, o) in out.iter_mut().enumerate() {
-            *o += gain * self.bed.force_n(start + t, speed);
-        }
-        let done = start + out.len();
+        let done = self.bed.add(start, speed, gain, out);
         self.bed_pulse = (done < self.bed.len()).then_some((done, speed));
     }
 

@@ -108,15 +108,10 @@ impl KeyBedPulse {
         self.shape.is_empty()
     }
 
-    /// [`key_bed_force_n`] at sample `n` for a hammer speed `speed_m_s`.
-    #[inline]
-    pub fn force_n(&self, n: usize, speed_m_s: f64) -> f64 {
-        self.shape.get(n).map_or(0.0, |&shape| Self::height_n(speed_m_s) * shape)
-    }
-
-    /// The pulse's samples from `start` on, to `out.len()`, each times `gain`
-    /// added in: a struck key's stretch of [`Self::force_n`]. Returns the
-    /// sample after the stretch.
+    /// The pulse's force ([`key_bed_force_n`]) for a hammer speed
+    /// `speed_m_s` from sample `start` on, to `out.len()`, each times `gain`
+    /// added in: a struck key's stretch of it. Returns the sample after the
+    /// stretch.
     pub fn add(&self, start: usize, speed_m_s: f64, gain: f64, out: &mut [f64]) -> usize {
         let height_n = Self::height_n(speed_m_s);
         let shape = self.shape.get(start..).unwrap_or(&[]);
@@ -197,8 +192,10 @@ mod tests {
             let pulse = KeyBedPulse::new(fs);
             assert_eq!(pulse.len(), (0..).take_while(|&n| (n as f64 / fs) < KEY_BED_PULSE_S).count());
             for speed in [0.1, 1.0, 3.0, 7.0] {
-                for n in 0..pulse.len() + 10 {
-                    let (table, formula) = (pulse.force_n(n, speed), key_bed_force_n(n, speed, fs));
+                let mut table = vec![0.0; pulse.len() + 10];
+                assert_eq!(pulse.add(0, speed, 1.0, &mut table), table.len());
+                for (n, table) in table.into_iter().enumerate() {
+                    let formula = key_bed_force_n(n, speed, fs);
                     assert_eq!(table.to_bits(), formula.to_bits(), "fs {fs}, speed {speed}, sample {n}");
                 }
             }

@@ -1399,6 +1399,13 @@ impl Key {
         }
     }
 
+    /// Where it pushes on the bridge, unless it has a place of its own in
+    /// the stereo image (then only [`Self::drive`] drives it: its pan glides
+    /// as it does).
+    pub fn fixed_bridge_point(&self) -> Option<BridgePoint> {
+        (!self.pan.is_placed()).then_some(self.bridge_point)
+    }
+
     /// Add the key bed's pulse, while it lasts, to `out` (at output gain).
     fn add_key_bed(&mut self, out: &mut [f64]) {
         let Some((start, speed)) = self.bed_pulse else { return };

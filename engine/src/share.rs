@@ -2,8 +2,9 @@
 //! cut in two halves that never write to the same place, the second half run
 //! by a [`Helper`] thread while the caller runs the first (or, while a render
 //! through the body is not watched, one job a stretch: the caller trades
-//! among the strings while the helper runs the body over the stretch before,
-//! then each tells and sounds its half of the keys: `Synth::stretch_beside`). Which half a piece
+//! among the strings while the helper drives the bridge and runs the body
+//! over the stretch before, then each tells and sounds its half of the keys:
+//! `Synth::stretch_beside`). Which half a piece
 //! of work falls in, and the order the halves' sums are added in, never
 //! depend on whether a helper ran one, so a render is bit-identical on one
 //! thread and on two.

@@ -28,7 +28,7 @@ pub use workshop::{Delivery, Workshop};
 use crate::body::boards;
 use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
-use crate::body::{Bridge, Output};
+use crate::body::{Bridge, BridgePoint, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
 use crate::share::{CachePadded, Helper};
@@ -226,10 +226,15 @@ pub struct Instrument {
     /// The stretch before's bridge, while a shared render runs its body
     /// beside this stretch's keys ([`Synth::stretch_beside`]).
     bridge_before: Box<Bridge>,
-    /// Each key's force over a stretch, by its index, and whether it sounded
-    /// (while sharing).
-    forces: Vec<[f64; CONTROL_BLOCK]>,
-    sounded: Vec<bool>,
+    /// What each key did over a stretch, by its index (while sharing).
+    rows: Vec<KeyRow>,
+    /// While stretches run beside the body: the keys' rows of the stretch
+    /// before (`rows` then, swapped in), and that stretch's length and
+    /// whether the body runs once per microphone, if its bridge is still to
+    /// be driven: the helper drives it before running the body over it,
+    /// while the calling thread trades among the strings.
+    rows_before: Vec<KeyRow>,
+    drive_before: Option<(usize, bool)>,
     /// Where the keys are cut for sharing (those from `half` on go to the
     /// helper), set at each control block so that `low_share` of their
     /// estimated work lies below: a share that follows how long each half
@@ -359,8 +364,9 @@ impl Instrument {
             bridge: Box::default(),
             bridge_before: Box::default(),
             soundboard,
-            forces: vec![[0.0; CONTROL_BLOCK]; key_count],
-            sounded: vec![false; key_count],
+            rows: vec![KeyRow::default(); key_count],
+            rows_before: vec![KeyRow::default(); key_count],
+            drive_before: None,
             half: 0,
             low_share: 0.5,
             work: 0,
@@ -421,7 +427,7 @@ impl Instrument {
     fn sound(&mut self, n: usize, helper: Option<&mut Helper>, mut watch: Option<(u8, &mut ScopeWriter)>) {
         let Some(helper) = helper else {
             // One thread: each key drives the bridge as soon as it has sounded.
-            let force = &mut self.forces[0][..n];
+            let force = &mut self.rows[0].force[..n];
             for key in self.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                 sound_key(key, force, watch.as_mut());
                 key.drive(&mut self.bridge, force);
@@ -430,16 +436,15 @@ impl Instrument {
         };
         let half = self.half.min(self.keys.len());
         let (low, high) = self.keys.split_at_mut(half);
-        let (forces_low, forces_high) = self.forces.split_at_mut(half);
-        let (sounded_low, sounded_high) = self.sounded.split_at_mut(half);
+        let (rows_low, rows_high) = self.rows.split_at_mut(half);
         let (watch_low, watch_high) = match watch {
             Some((k, scope)) if (k as usize) < half => (Some((k, scope)), None),
             other => (None, other),
         };
         let (mut low_s, mut high_s) = (0.0, 0.0);
         helper.join(
-            || low_s = sound_keys(low, (forces_low, sounded_low), n, watch_low),
-            || high_s = sound_keys(high, (forces_high, sounded_high), n, watch_high),
+            || low_s = sound_keys(low, rows_low, n, watch_low).0,
+            || high_s = sound_keys(high, rows_high, n, watch_high).0,
         );
         self.drive_sounded(n);
         self.even_out(low_s, high_s);
@@ -449,9 +454,9 @@ impl Instrument {
     /// the stretch's `n` samples, in the keys' order (so where they were cut
     /// between two threads changes no sample).
     fn drive_sounded(&mut self, n: usize) {
-        for ((key, force), _) in self.keys.iter_mut().zip(&self.forces).zip(&self.sounded).filter(|(_, s)| **s) {
+        for (key, row) in self.keys.iter_mut().zip(&self.rows).filter(|(_, row)| row.sounded) {
             if let Some(key) = key.as_mut() {
-                key.drive(&mut self.bridge, &force[..n]);
+                key.drive(&mut self.bridge, &row.force[..n]);
             }
         }
     }
@@ -462,6 +467,20 @@ impl Instrument {
         let split = output == Output::Microphones
             && (self.soundboard.is_split() || self.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
         self.bridge.start(n, output == Output::BridgeForce, split);
+    }
+
+    /// The bridge of the stretch of `n` samples the keys just sounded, heard
+    /// through the microphones: started and driven now if a sounding key
+    /// has a place of its own (`placed`), else left for [`drive_rows`] to
+    /// drive as the keys' rows say (beside the next stretch's trade, or
+    /// before its body runs alone). The same bridge either way.
+    fn leave_bridge(&mut self, n: usize, placed: bool) {
+        if placed {
+            self.start_bridge(n, Output::Microphones);
+            self.drive_sounded(n);
+        } else {
+            self.drive_before = Some((n, self.soundboard.is_split()));
+        }
     }
 
     /// Move the cut between the keys' halves toward where they would have
@@ -523,6 +542,34 @@ fn run_body(
         soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
     } else {
         soundboard.process(bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
+    }
+}
+
+/// Start `bridge` for a stretch of `n` samples (split per microphone if
+/// `split`) and drive it with the keys' `rows`, in the keys' order: what
+/// [`Instrument::drive_sounded`] does for keys without a place of their own.
+fn drive_rows(bridge: &mut Bridge, (n, split): (usize, bool), rows: &[KeyRow]) {
+    bridge.start(n, false, split);
+    for row in rows {
+        if let Some(at) = row.push {
+            bridge.drive(at, &row.force[..n]);
+        }
+    }
+}
+
+/// What a key did over a stretch, while sharing ([`sound_keys`]).
+#[derive(Clone, Copy)]
+struct KeyRow {
+    /// Its force, N (at output gain).
+    force: [f64; CONTROL_BLOCK],
+    sounded: bool,
+    /// Where it pushes on the bridge, if it sounded and has no place of its own.
+    push: Option<BridgePoint>,
+}
+
+impl Default for KeyRow {
+    fn default() -> Self {
+        Self { force: [0.0; CONTROL_BLOCK], sounded: false, push: None }
     }
 }
 
@@ -653,24 +700,29 @@ struct Stretch {
     len: usize,
 }
 
-/// Each of `keys` that is sounding's force over `n` samples, into its row of
-/// `forces`, noting in `sounded` which did; `watch` (a key, its scope)
-/// records the watched key's contact. How long it took, s.
+/// Each of `keys` that is sounding's force over `n` samples, into its row,
+/// with whether it sounded and where it pushes on the bridge
+/// ([`Key::fixed_bridge_point`]); `watch` (a key, its scope) records the
+/// watched key's contact. How long it took, s, and whether a key that
+/// sounded sounds on with a place of its own.
 fn sound_keys(
     keys: &mut [Option<Key>],
-    (forces, sounded): (&mut [[f64; CONTROL_BLOCK]], &mut [bool]),
+    rows: &mut [KeyRow],
     n: usize,
     mut watch: Option<(u8, &mut ScopeWriter)>,
-) -> f64 {
+) -> (f64, bool) {
     let start = std::time::Instant::now();
-    for ((key, force), sounded) in keys.iter_mut().zip(forces.iter_mut()).zip(sounded.iter_mut()) {
-        *sounded = false;
+    let mut placed = false;
+    for (key, row) in keys.iter_mut().zip(rows.iter_mut()) {
+        (row.sounded, row.push) = (false, None);
         if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
-            sound_key(key, &mut force[..n], watch.as_mut());
-            *sounded = true;
+            sound_key(key, &mut row.force[..n], watch.as_mut());
+            row.sounded = true;
+            row.push = key.fixed_bridge_point();
+            placed |= key.is_sounding() && key.is_placed();
         }
     }
-    start.elapsed().as_secs_f64()
+    (start.elapsed().as_secs_f64(), placed)
 }
 
 /// `key`'s force over `force.len()` samples; `watch` (a key, its scope)
@@ -1335,9 +1387,13 @@ impl Synth {
     /// body is a sink: nothing the keys do waits on it, so its run over the
     /// stretch `before` is put off to this one and the whole stretch is one
     /// piece of shared work: the calling thread trades among the strings
-    /// through the body (it reads and moves every key) while the helper runs
-    /// the body over the stretch before; then each tells and sounds its half
-    /// of the keys. The cores wait on each other once a stretch instead of
+    /// through the body (it reads and moves every key) while the helper
+    /// drives the bridge over the stretch before with the forces the keys
+    /// left in their rows and runs the body over it (while a key has a place
+    /// of its own, whose pan glides as it drives, the calling thread drives
+    /// the bridge once the keys have sounded instead); then each tells and
+    /// sounds its half of the keys. The cores wait on each other once a
+    /// stretch instead of
     /// two to four times, and the trading, which only one core can do, no
     /// longer leaves the other idle (but for the body over the last stretch
     /// before an event, or a host block's end, which runs alone). Every key
@@ -1356,11 +1412,18 @@ impl Synth {
         let lifting = &mut self.lifting;
         let instrument = &mut *self.current;
         std::mem::swap(&mut instrument.bridge, &mut instrument.bridge_before);
+        // (The stretch before's rows, if its bridge is still to be driven.)
+        let drive_before = instrument.drive_before.take();
+        debug_assert!(drive_before.is_none() || before.is_some(), "a bridge left undriven");
+        if drive_before.is_some() {
+            std::mem::swap(&mut instrument.rows, &mut instrument.rows_before);
+        }
         let half = instrument.half.min(instrument.keys.len());
-        let Instrument { keys, forces, sounded, soundboard, bridge_before, heard, sympathy, .. } = instrument;
+        let Instrument { keys, rows, rows_before, soundboard, bridge_before, heard, sympathy, .. } = instrument;
+        let rows_before = &*rows_before;
         let shared = SharedKeys::new(keys);
-        let (forces_low, forces_high) = forces.split_at_mut(half);
-        let (sounded_low, sounded_high) = sounded.split_at_mut(half);
+        let (rows_low, rows_high) = rows.split_at_mut(half);
+        let (mut low_placed, mut high_placed) = (false, false);
         let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
         let (mut low_s, mut high_s) = (0.0, 0.0);
         crate::share::both(
@@ -1380,12 +1443,15 @@ impl Synth {
                 if control {
                     tick.control(low, &mut low_ended);
                 }
-                sound_keys(low, (forces_low, sounded_low), len, None);
+                low_placed = sound_keys(low, rows_low, len, None).1;
                 low_s = start.elapsed().as_secs_f64();
             },
             || {
                 let start = std::time::Instant::now();
                 if before.is_some() {
+                    if let Some(stretch) = drive_before {
+                        drive_rows(bridge_before, stretch, rows_before);
+                    }
                     run_body(soundboard, bridge_before, heard, None);
                 }
                 shared.wait();
@@ -1395,7 +1461,7 @@ impl Synth {
                 if control {
                     tick.control(high, &mut high_ended);
                 }
-                sound_keys(high, (forces_high, sounded_high), len, None);
+                high_placed = sound_keys(high, rows_high, len, None).1;
                 high_s = start.elapsed().as_secs_f64();
             },
         );
@@ -1407,9 +1473,8 @@ impl Synth {
             // (The cut is weighed only where the helper's half had the body in it.)
             instrument.even_out(low_s, high_s);
         }
-        // (Started once the keys are told: which are placed is known then.)
-        instrument.start_bridge(len, Output::Microphones);
-        instrument.drive_sounded(len);
+        // (Once the keys are told: which are placed is known then.)
+        instrument.leave_bridge(len, low_placed || high_placed);
         if let Some(b) = before {
             self.emit_before(b, left, right);
         }
@@ -1422,6 +1487,9 @@ impl Synth {
     fn finish_before<T: OutputSample>(&mut self, before: Option<Stretch>, left: &mut [T], right: &mut [T]) {
         let Some(b) = before else { return };
         let instrument = &mut *self.current;
+        if let Some(stretch) = instrument.drive_before.take() {
+            drive_rows(&mut instrument.bridge, stretch, &instrument.rows);
+        }
         run_body(&mut instrument.soundboard, &instrument.bridge, &mut instrument.heard, self.helper.as_mut());
         self.emit_before(b, left, right);
     }

@@ -738,7 +738,7 @@ fn sound_key(key: &mut Key, force: &mut [f64], watch: Option<&mut (u8, &mut Scop
 }
 
 /// A sample type the synth writes.
-trait OutputSample: Copy {
+trait OutputSample: Copy + Send {
     fn from_f64(x: f64) -> Self;
 }
 
@@ -869,13 +869,7 @@ pub struct Synth {
     wheel: f64,
     bend: f64,
     clock: u64,
-    gain: f64,
-    dc: [DcBlock; 2],
-    dc_r: f64,
-    /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
-    glide: f64,
-    /// What every instrument sounding gave.
-    mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
+    outlet: Outlet,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
     /// The thread that runs the second halves of the keys and of the body
@@ -931,11 +925,7 @@ impl Synth {
             wheel: 0.0,
             bend: 1.0,
             clock: 0,
-            gain: 1.0,
-            dc: [DcBlock::default(); 2],
-            dc_r: (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp(),
-            glide: glide_step(fs),
-            mix: Box::new([[0.0; CONTROL_BLOCK]; 2]),
+            outlet: Outlet::new(fs),
             ended: Vec::with_capacity(1024),
             scope,
             helper: None,
@@ -1026,9 +1016,7 @@ impl Synth {
         if self.helper.is_some() {
             self.current.balance();
         }
-        let fs = self.current.settings.sample_rate_hz;
-        self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / fs).exp();
-        self.glide = glide_step(fs);
+        self.outlet.set_rate(self.current.settings.sample_rate_hz);
     }
 
     fn retire(&mut self, instrument: Box<Instrument>) {
@@ -1389,17 +1377,18 @@ impl Synth {
     /// piece of shared work: the calling thread trades among the strings
     /// through the body (it reads and moves every key) while the helper
     /// drives the bridge over the stretch before with the forces the keys
-    /// left in their rows and runs the body over it (while a key has a place
-    /// of its own, whose pan glides as it drives, the calling thread drives
-    /// the bridge once the keys have sounded instead); then each tells and
-    /// sounds its half of the keys. The cores wait on each other once a
+    /// left in their rows, runs the body over it and writes its samples
+    /// (while a key has a place of its own, whose pan glides as it drives,
+    /// the calling thread drives the bridge once the keys have sounded
+    /// instead); then each tells and sounds its half of the keys. The cores wait on each other once a
     /// stretch instead of
     /// two to four times, and the trading, which only one core can do, no
     /// longer leaves the other idle (but for the body over the last stretch
     /// before an event, or a host block's end, which runs alone). Every key
     /// and the body take the same steps, in the same order, as on one
     /// thread. The stretch `before`'s samples are written to `left` and
-    /// `right`; returns this stretch, whose body is still to run.
+    /// `right` (by the helper); returns this stretch, whose body is still
+    /// to run.
     fn stretch_beside<T: OutputSample>(
         &mut self,
         (pos, len): (usize, usize),
@@ -1426,6 +1415,7 @@ impl Synth {
         let (mut low_placed, mut high_placed) = (false, false);
         let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
         let (mut low_s, mut high_s) = (0.0, 0.0);
+        let (outlet, scope, to) = (&mut self.outlet, &mut self.scope, self.controls.output_gain);
         crate::share::both(
             self.helper.as_mut(),
             || {
@@ -1454,6 +1444,9 @@ impl Synth {
                     }
                     run_body(soundboard, bridge_before, heard, None);
                 }
+                if let Some(b) = before {
+                    outlet.emit(b, heard, to, scope, left, right);
+                }
                 shared.wait();
                 // SAFETY: the upper half, on this thread only, after the
                 // release (the other thread keeps to the lower half now).
@@ -1475,9 +1468,6 @@ impl Synth {
         }
         // (Once the keys are told: which are placed is known then.)
         instrument.leave_bridge(len, low_placed || high_placed);
-        if let Some(b) = before {
-            self.emit_before(b, left, right);
-        }
         Stretch { pos, len }
     }
 
@@ -1497,20 +1487,13 @@ impl Synth {
     /// Write the stretch `before`'s samples (its body heard) as
     /// [`Self::render`] writes a stretch's.
     fn emit_before<T: OutputSample>(&mut self, before: Stretch, left: &mut [T], right: &mut [T]) {
-        let Stretch { pos, len } = before;
-        // (Added to a silent mix, as `render` does: the same zeros' signs.)
-        let [mix_l, mix_r] = &mut *self.mix;
-        mix_l[..len].fill(0.0);
-        mix_r[..len].fill(0.0);
-        let [heard_l, heard_r] = &*self.current.heard;
-        mix_l[..len].iter_mut().zip(&heard_l[..len]).for_each(|(o, v)| *o += v);
-        mix_r[..len].iter_mut().zip(&heard_r[..len]).for_each(|(o, v)| *o += v);
-        self.write_out(&mut left[pos..pos + len], &mut right[pos..pos + len]);
+        let to = self.controls.output_gain;
+        self.outlet.emit(before, &self.current.heard, to, &mut self.scope, left, right);
     }
 
     fn render<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
         let n = left.len();
-        let [mix_l, mix_r] = &mut *self.mix;
+        let [mix_l, mix_r] = &mut *self.outlet.mix;
         mix_l[..n].fill(0.0);
         mix_r[..n].fill(0.0);
         let scope_key = self.scope.key();
@@ -1527,9 +1510,46 @@ impl Synth {
     /// The mix's first `left.len()` samples through the DC block and the
     /// output gain, to `left` and `right` (and the live view).
     fn write_out<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
+        self.outlet.write(self.controls.output_gain, &mut self.scope, left, right);
+    }
+}
+
+/// What every instrument sounding gave, and the last stage it goes out
+/// through: a DC block and the output gain, gliding to its control.
+struct Outlet {
+    mix: Box<[[f64; CONTROL_BLOCK]; 2]>,
+    gain: f64,
+    dc: [DcBlock; 2],
+    dc_r: f64,
+    /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
+    glide: f64,
+}
+
+impl Outlet {
+    fn new(sample_rate_hz: f64) -> Self {
+        let mut outlet = Self {
+            mix: Box::new([[0.0; CONTROL_BLOCK]; 2]),
+            gain: 1.0,
+            dc: [DcBlock::default(); 2],
+            dc_r: 0.0,
+            glide: 0.0,
+        };
+        outlet.set_rate(sample_rate_hz);
+        outlet
+    }
+
+    fn set_rate(&mut self, sample_rate_hz: f64) {
+        self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / sample_rate_hz).exp();
+        self.glide = glide_step(sample_rate_hz);
+    }
+
+    /// The mix's first `left.len()` samples through the DC block and the
+    /// output gain gliding to `to`, to `left` and `right` (and the live
+    /// view, `scope`).
+    fn write<T: OutputSample>(&mut self, to: f64, scope: &mut ScopeWriter, left: &mut [T], right: &mut [T]) {
         let n = left.len();
         let [mix_l, mix_r] = &*self.mix;
-        let (glide, r, to) = (self.glide, self.dc_r, self.controls.output_gain);
+        let (glide, r) = (self.glide, self.dc_r);
         let mut heard = [0.0f32; CONTROL_BLOCK];
         for t in 0..n {
             // The glide arrives once within 1e-9 of its target (-180 dB): gliding on
@@ -1542,7 +1562,29 @@ impl Synth {
             right[t] = T::from_f64(rr);
             heard[t] = 0.5 * (l + rr) as f32;
         }
-        self.scope.samples(&heard[..n]);
+        scope.samples(&heard[..n]);
+    }
+
+    /// The stretch `before`'s samples, what the body's microphones `heard`,
+    /// written as [`Synth::render`] writes a stretch's.
+    fn emit<T: OutputSample>(
+        &mut self,
+        before: Stretch,
+        heard: &[[f64; CONTROL_BLOCK]; 2],
+        to: f64,
+        scope: &mut ScopeWriter,
+        left: &mut [T],
+        right: &mut [T],
+    ) {
+        let Stretch { pos, len } = before;
+        // (Added to a silent mix, as `render` does: the same zeros' signs.)
+        let [mix_l, mix_r] = &mut *self.mix;
+        mix_l[..len].fill(0.0);
+        mix_r[..len].fill(0.0);
+        let [heard_l, heard_r] = heard;
+        mix_l[..len].iter_mut().zip(&heard_l[..len]).for_each(|(o, v)| *o += v);
+        mix_r[..len].iter_mut().zip(&heard_r[..len]).for_each(|(o, v)| *o += v);
+        self.write(to, scope, &mut left[pos..pos + len], &mut right[pos..pos + len]);
     }
 }
 

@@ -1380,11 +1380,11 @@ impl Synth {
     /// left in their rows, runs the body over it and writes its samples
     /// (while a key has a place of its own, whose pan glides as it drives,
     /// the calling thread drives the bridge once the keys have sounded
-    /// instead); then each tells and sounds its half of the keys. The cores wait on each other once a
-    /// stretch instead of
-    /// two to four times, and the trading, which only one core can do, no
-    /// longer leaves the other idle (but for the body over the last stretch
-    /// before an event, or a host block's end, which runs alone). Every key
+    /// instead); then each tells and sounds its half of the keys. The cores
+    /// wait on each other once a stretch instead of two to four times, and
+    /// the trading, which only one core can do, no longer leaves the other
+    /// idle (but for the body over the last stretch before an event, or a
+    /// host block's end, which runs alone). Every key
     /// and the body take the same steps, in the same order, as on one
     /// thread. The stretch `before`'s samples are written to `left` and
     /// `right` (by the helper); returns this stretch, whose body is still
@@ -1438,13 +1438,11 @@ impl Synth {
             },
             || {
                 let start = std::time::Instant::now();
-                if before.is_some() {
+                if let Some(b) = before {
                     if let Some(stretch) = drive_before {
                         drive_rows(bridge_before, stretch, rows_before);
                     }
                     run_body(soundboard, bridge_before, heard, None);
-                }
-                if let Some(b) = before {
                     outlet.emit(b, heard, to, scope, left, right);
                 }
                 shared.wait();

@@ -71,10 +71,21 @@ pub fn key_bed_force_n(n: usize, speed_m_s: f64, sample_rate_hz: f64) -> f64 {
     if !(t < KEY_BED_PULSE_S) {
         return 0.0;
     }
+    key_bed_half_peak_n(speed_m_s) * raised_cosine(t)
+}
+
+/// Half the key bed's peak force on the board for a hammer speed
+/// `speed_m_s`, N: a raised cosine of area m v peaks at 2 m v / T.
+fn key_bed_half_peak_n(speed_m_s: f64) -> f64 {
     let momentum = KEY_MASS_KG * speed_m_s / ACTION_RATIO;
-    // A raised cosine of area m v: peak 2 m v / T.
     let peak = 2.0 * momentum / KEY_BED_PULSE_S;
-    KEY_BED_TO_BOARD * peak * 0.5 * (1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos())
+    KEY_BED_TO_BOARD * peak * 0.5
+}
+
+/// The key bed pulse's shape `t` seconds after the key bottoms,
+/// 1 - cos(2 pi t / T): 0 to 2 and back over the pulse.
+fn raised_cosine(t: f64) -> f64 {
+    1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos()
 }
 
 /// The key bed's pulse at one sample rate, its raised cosine worked out once:
@@ -90,11 +101,7 @@ impl KeyBedPulse {
     /// The pulse at `sample_rate_hz`. Allocates.
     pub fn new(sample_rate_hz: f64) -> Self {
         let fs = if sample_rate_hz.is_finite() && sample_rate_hz > 0.0 { sample_rate_hz } else { f64::NAN };
-        let shape = (0..)
-            .map(|n| n as f64 / fs)
-            .take_while(|&t| t < KEY_BED_PULSE_S)
-            .map(|t| 1.0 - (2.0 * PI * t / KEY_BED_PULSE_S).cos())
-            .collect();
+        let shape = (0..).map(|n| n as f64 / fs).take_while(|&t| t < KEY_BED_PULSE_S).map(raised_cosine).collect();
         Self { shape }
     }
 
@@ -113,20 +120,12 @@ impl KeyBedPulse {
     /// added in: a struck key's stretch of it. Returns the sample after the
     /// stretch.
     pub fn add(&self, start: usize, speed_m_s: f64, gain: f64, out: &mut [f64]) -> usize {
-        let height_n = Self::height_n(speed_m_s);
+        let height_n = key_bed_half_peak_n(speed_m_s);
         let shape = self.shape.get(start..).unwrap_or(&[]);
         for (o, &s) in out.iter_mut().zip(shape) {
             *o += gain * (height_n * s);
         }
         start + out.len()
-    }
-
-    /// Half the pulse's peak on the board for a hammer speed `speed_m_s`, N:
-    /// a raised cosine of area m v peaks at 2 m v / T.
-    fn height_n(speed_m_s: f64) -> f64 {
-        let momentum = KEY_MASS_KG * speed_m_s / ACTION_RATIO;
-        let peak = 2.0 * momentum / KEY_BED_PULSE_S;
-        KEY_BED_TO_BOARD * peak * 0.5
     }
 }
 

@@ -4,10 +4,9 @@
 //! through the body is not watched, one job a stretch: the caller trades
 //! among the strings while the helper drives the bridge and runs the body
 //! over the stretch before, then each tells and sounds its half of the keys:
-//! `Synth::stretch_beside`). Which half a piece
-//! of work falls in, and the order the halves' sums are added in, never
-//! depend on whether a helper ran one, so a render is bit-identical on one
-//! thread and on two.
+//! `Synth::stretch_beside`). Which half a piece of work falls in, and the
+//! order the halves' sums are added in, never depend on whether a helper
+//! ran one, so a render is bit-identical on one thread and on two.
 //!
 //! The halves are short (a control block of a few keys: some microseconds),
 //! so the helper waits for them spinning, never sleeping between them, and

@@ -22,7 +22,8 @@ use struck_engine::body::soundboard::{MicPlacement, Perspective};
 use struck_engine::design::{InstrumentKind, Voicing};
 use struck_engine::rng::Rng;
 use struck_engine::synth::{
-    Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop, default_settings,
+    Controls, Delivery, Event, Instrument, InstrumentSettings, MAX_PACED_LATENCY, Paced, Synth, TimedEvent, Workshop,
+    default_settings,
 };
 use struck_engine::tuning::{Temperament, TuningSettings};
 
@@ -194,7 +195,8 @@ fn check(samples: &[f32], fs: f64, at: usize) {
 /// The audio thread's side of a session: the synth, its delivery of new
 /// instruments, and a tally of what it played.
 struct Player {
-    synth: Synth,
+    /// Played late now and then (load smoothing), as the plugin may.
+    synth: Paced,
     delivery: Delivery,
     fs: f64,
     left: Vec<f32>,
@@ -207,19 +209,27 @@ struct Player {
 impl Player {
     /// One host block of `n` samples under the allocation counter, then checked.
     fn play(&mut self, events: &[TimedEvent], n: usize, controls: Controls) {
-        let before = self.synth.settings().clone();
+        let before = self.synth.synth().settings().clone();
         WATCHED.with(|w| w.set(true));
-        self.delivery.exchange(&mut self.synth);
-        self.synth.set_controls(controls);
+        self.delivery.exchange(self.synth.synth_mut());
+        self.synth.synth_mut().set_controls(controls);
         self.synth.process(events, &mut self.left[..n], &mut self.right[..n]);
         WATCHED.with(|w| w.set(false));
         check(&self.left[..n], self.fs, self.rendered);
         check(&self.right[..n], self.fs, self.rendered);
         self.peak = self.left[..n].iter().chain(&self.right[..n]).fold(self.peak, |p, v| p.max(v.abs()));
         self.rendered += n;
-        if *self.synth.settings() != before {
+        if *self.synth.synth().settings() != before {
             self.installs += 1;
         }
+    }
+
+    /// Be heard `latency` samples late from now on (what is pending dropped),
+    /// under the allocation counter.
+    fn retime(&mut self, latency: usize) {
+        WATCHED.with(|w| w.set(true));
+        self.synth.set_latency(latency);
+        WATCHED.with(|w| w.set(false));
     }
 }
 
@@ -232,8 +242,9 @@ fn session(fs: f64, seconds: f64, seed: u64) {
     let wanted = Arc::new(Mutex::new(random_settings(&mut rng, fs)));
     let reader = wanted.clone();
     let (workshop, delivery) = Workshop::spawn(first, move || reader.lock().ok().map(|w| w.clone()));
+    let latencies = [0, Paced::latency_for(fs), MAX_PACED_LATENCY];
     let mut player = Player {
-        synth,
+        synth: Paced::new(synth, latencies[rng.below(3) as usize]),
         delivery,
         fs,
         left: vec![0.0; 8192],
@@ -269,6 +280,9 @@ fn session(fs: f64, seconds: f64, seed: u64) {
         if rng.below(40) == 0 {
             *wanted.lock().unwrap() = random_settings(&mut rng, fs);
         }
+        if rng.below(100) == 0 {
+            player.retime(latencies[rng.below(3) as usize]);
+        }
         player.play(&events, block, controls);
         // Give the workshop a moment now and then, as real time would.
         if rng.below(50) == 0 {
@@ -278,7 +292,7 @@ fn session(fs: f64, seconds: f64, seed: u64) {
     // The last settings asked for arrive within a moment.
     let last = wanted.lock().unwrap().clone();
     let deadline = Instant::now() + Duration::from_secs(60);
-    while *player.synth.settings() != last {
+    while *player.synth.synth().settings() != last {
         assert!(Instant::now() < deadline, "the workshop never delivered {last:?} at {fs} Hz");
         std::thread::sleep(Duration::from_millis(5));
         player.play(&[], 64, controls);

@@ -2,7 +2,9 @@
 
 use struck_engine::body::Output;
 use struck_engine::design::{InstrumentKind, Voicing, clavichord_pitch_rise_cents};
-use struck_engine::synth::{Controls, Delivery, Event, Instrument, InstrumentSettings, Synth, TimedEvent, Workshop};
+use struck_engine::synth::{
+    Ahead, Controls, Delivery, Event, Instrument, InstrumentSettings, Paced, Synth, TimedEvent, Workshop,
+};
 
 const FS: f64 = 48_000.0;
 
@@ -150,6 +152,108 @@ fn any_block_size_gives_the_same_samples() {
             assert!(
                 out.iter().zip(&reference).all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{kind}: block {block} differs (watched: {watched})"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_paced_synth_is_the_same_synth_heard_later() {
+    // Heard through the body and watched by a live view, as in the plugin;
+    // the synth rendering ahead as far as it may (the host's block), only as
+    // far as it must (the latency), and anywhere between at random, in host
+    // blocks shorter and longer than the latency and longer than the ring;
+    // a chord struck on one sample; thousands of events on one sample. The samples are the synth's, later by
+    // the latency; keys fallen silent are reported no later than heard.
+    let fs = FS;
+    let mut events = session();
+    events.extend((36..=96u8).step_by(4).map(|key| (0.1203, Event::NoteOn { key, velocity: 1.0 })));
+    // (A reset silences every key: they are reported fallen silent.)
+    events.extend([(0.5017, Event::Reset), (0.52, Event::NoteOn { key: 55, velocity: 0.9 })]);
+    // More events on one sample than the paced synth queues.
+    events.extend((0..9000).map(|i| (0.3003, Event::KeyVolume { key: 64, gain: 0.4 + 1e-5 * i as f32 })));
+    events.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let seconds = 0.6;
+    let total = (seconds * fs) as usize;
+    let timed: Vec<(usize, Event)> = events.iter().map(|&(t, e)| ((t * fs).round() as usize, e)).collect();
+    let piano = || {
+        let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, fs);
+        Synth::new(Box::new(Instrument::build(&settings).unwrap()))
+    };
+    let (mut plain, _plain_scope) = piano();
+    let ((reference_left, reference_right), reference_ended) = {
+        let (mut l, mut r) = (vec![0.0f32; total], vec![0.0f32; total]);
+        let mut ended = Vec::new();
+        for start in (0..total).step_by(64) {
+            let end = (start + 64).min(total);
+            let block: Vec<TimedEvent> = timed
+                .iter()
+                .filter(|e| e.0 >= start && e.0 < end)
+                .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
+                .collect();
+            plain.process(&block, &mut l[start..end], &mut r[start..end]);
+            ended.extend(plain.ended_keys().iter().map(|e| (start + e.time as usize, e.key)));
+        }
+        assert!(!ended.is_empty(), "no key fell silent");
+        ((l, r), ended)
+    };
+    let latency = Paced::latency_for(fs);
+    assert_eq!(latency, 128);
+    for (block, rule) in [
+        (64, "as far as it may"),
+        (64, "as far as it must"),
+        (37, "at random"),
+        (200, "at random"),
+        (3000, "at random"),
+        (1, "at random"),
+    ] {
+        let (synth, _scope) = piano();
+        let mut paced = Paced::new(synth, latency);
+        let mut seed = 0x9e37_79b9_u64 ^ block as u64;
+        let mut ahead = |a: Ahead| match rule {
+            "as far as it may" => a.may,
+            "as far as it must" => 0,
+            _ => {
+                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                // Stop one time in eight, else any length (more than it may, too).
+                if seed >> 61 == 0 { 0 } else { (seed >> 32) as usize % (a.may + 9) }
+            }
+        };
+        let heard = total + latency;
+        let (mut l, mut r) = (vec![0.0f32; heard], vec![0.0f32; heard]);
+        let mut ended = Vec::new();
+        for start in (0..heard).step_by(block) {
+            let end = (start + block).min(heard);
+            let events: Vec<TimedEvent> = timed
+                .iter()
+                .filter(|e| e.0 >= start && e.0 < end)
+                .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
+                .collect();
+            // (At random, a block's events on its first sample come in a call
+            // of no samples before it, as a host may send them.)
+            let first = if rule == "at random" { events.iter().take_while(|e| e.time == 0).count() } else { 0 };
+            paced.process_with(&events[..first], &mut [], &mut [], &mut ahead);
+            ended.extend(paced.ended_keys().iter().map(|e| (start + e.time as usize, e.key)));
+            paced.process_with(&events[first..], &mut l[start..end], &mut r[start..end], &mut ahead);
+            ended.extend(paced.ended_keys().iter().map(|e| (start + e.time as usize, e.key)));
+        }
+        assert!(
+            l[..latency].iter().chain(&r[..latency]).all(|&v| v == 0.0),
+            "{block}, {rule}: heard before the latency"
+        );
+        for (channel, (heard, reference)) in [("left", (&l, &reference_left)), ("right", (&r, &reference_right))] {
+            assert!(
+                heard[latency..].iter().zip(reference.iter()).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{channel} differs: blocks of {block}, rendering ahead {rule}"
+            );
+        }
+        let keys: Vec<u8> = ended.iter().map(|e| e.1).collect();
+        let reference_keys: Vec<u8> = reference_ended.iter().map(|e| e.1).collect();
+        assert_eq!(keys, reference_keys, "{block}, {rule}: keys fallen silent");
+        for (&(at, key), &(fell, _)) in ended.iter().zip(&reference_ended) {
+            assert!(
+                at <= fell + latency && at + 1 >= fell,
+                "{block}, {rule}: key {key} reported at {at}, fell silent at {fell}"
             );
         }
     }

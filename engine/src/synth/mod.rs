@@ -15,6 +15,7 @@
 
 mod body_voicing;
 mod event;
+mod paced;
 pub mod scope;
 mod sympathy;
 mod workshop;
@@ -22,6 +23,7 @@ mod workshop;
 use serde::{Deserialize, Serialize};
 
 pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, TimedEvent, cc};
+pub use paced::{Ahead, MAX_PACED_LATENCY, PACED_BUDGET, PACED_LATENCY_S, Paced};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
 

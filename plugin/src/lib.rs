@@ -145,11 +145,8 @@ impl Plugin for StruckPlugin {
             };
             let (synth, scope) = Synth::new(Box::new(instrument));
             let params = self.params.clone();
-            let (workshop, delivery) = Workshop::spawn_telling(
-                settings,
-                move || Some(params.settings(sample_rate_hz)),
-                self.building.clone(),
-            );
+            let (workshop, delivery) =
+                Workshop::spawn_telling(settings, move || Some(params.settings(sample_rate_hz)), self.building.clone());
             self.performer = Some(
                 Performer::new(synth, delivery).with_keyboard(self.keyboard.clone()).with_params(self.params.clone()),
             );
@@ -159,6 +156,13 @@ impl Plugin for StruckPlugin {
         }
         self.voice_capacity = self.params.controls().polyphony as u32;
         context.set_current_voice_capacity(self.voice_capacity);
+        if let Some(performer) = self.performer.as_mut() {
+            let latency = self.params.latency(sample_rate_hz);
+            if performer.latency() != latency {
+                performer.set_latency(latency);
+            }
+            context.set_latency_samples(latency as u32);
+        }
         self.offline = buffer_config.process_mode == ProcessMode::Offline;
         // (Offline, the first block makes sure what plays is what is asked for.)
         self.built = None;
@@ -188,6 +192,7 @@ impl Plugin for StruckPlugin {
             return ProcessStatus::Normal;
         };
         let fast = self.pace.faster_than_real_time(samples, self.sample_rate_hz);
+        performer.keep_up(self.offline || fast);
         if self.offline || fast {
             // A host rendering offline does not wait for the clock: what the
             // automation changed is built now and heard from this sample (the
@@ -212,6 +217,12 @@ impl Plugin for StruckPlugin {
             return ProcessStatus::Normal;
         };
         performer.set_mpe(self.params.mpe());
+        let latency = self.params.latency(self.sample_rate_hz);
+        if latency != performer.latency() {
+            // (The host restarts the plugin to take the new latency.)
+            performer.set_latency(latency);
+            context.set_latency_samples(latency as u32);
+        }
         let mut host = HostEvents { context, report_ends };
         let sounding = performer.process(controls, &mut host, left, right);
         // A ringing key keeps the host processing (its tail); silence lets it sleep.

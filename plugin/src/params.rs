@@ -238,6 +238,11 @@ pub struct OutputParams {
     /// How far an MPE note's own channel bends it, each way.
     #[id = "mpbr"]
     pub mpe_range: IntParam,
+    /// Load smoothing: heard 128 samples at 48 kHz late (2.7 ms), so a
+    /// chord's strikes spread their work over a few blocks (off: no latency,
+    /// and a chord's first blocks take all its work).
+    #[id = "pace"]
+    pub smoothing: BoolParam,
     /// Output level, dB (the engine glides to it, so no smoother here).
     #[id = "gain"]
     pub level_db: FloatParam,
@@ -437,6 +442,7 @@ impl Default for StruckParams {
                 bend_range: IntParam::new("Bend range", 2, IntRange::Linear { min: 0, max: 24 }).with_unit(" st"),
                 mpe: BoolParam::new("MPE", false),
                 mpe_range: IntParam::new("MPE bend range", 48, IntRange::Linear { min: 1, max: 96 }).with_unit(" st"),
+                smoothing: BoolParam::new("Load smoothing", true).non_automatable(),
                 level_db: FloatParam::new("Level", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
                     .with_unit(" dB")
                     .with_step_size(0.1)
@@ -559,6 +565,12 @@ impl StruckParams {
         self.output.mpe.value().then(|| self.output.mpe_range.value() as f32)
     }
 
+    /// The latency load smoothing asks for at `sample_rate_hz`, samples (0
+    /// with it off). Reads atomics only: real-time safe.
+    pub fn latency(&self, sample_rate_hz: f64) -> usize {
+        if self.output.smoothing.value() { struck_engine::synth::Paced::latency_for(sample_rate_hz) } else { 0 }
+    }
+
     /// The per-block controls. Reads atomics only: real-time safe.
     pub fn controls(&self) -> Controls {
         Controls {
@@ -646,7 +658,7 @@ mod tests {
                 .into_iter()
                 .chain(["damp", "detn"])
                 .chain(["tdep", "bebg", "fret", "a4", "temp", "root", "strt"])
-                .chain(["poly", "bend", "mpe", "mpbr", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
+                .chain(["poly", "bend", "mpe", "mpbr", "pace", "gain", "outp", "mic", "wdth", "bsiz", "birr"])
                 .chain(["symp", "phan", "knoi", "dnoi", "pnoi"])
                 .collect::<Vec<_>>();
         assert_eq!(ids, expected);

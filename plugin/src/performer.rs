@@ -5,7 +5,9 @@
 use std::sync::Arc;
 
 use nice_plug::prelude::*;
-use struck_engine::synth::{BendRouter, Controls, Delivery, Event, HammerRouter, PressureRouter, Synth, TimedEvent};
+use struck_engine::synth::{
+    BendRouter, Controls, Delivery, Event, HammerRouter, Paced, PressureRouter, Synth, TimedEvent,
+};
 
 use crate::keyboard::{KeyboardLink, PanelSeen};
 use crate::params::StruckParams;
@@ -29,7 +31,8 @@ pub type VoiceId = Option<i32>;
 
 /// The audio thread's half: host events in, engine events and audio out.
 pub struct Performer {
-    synth: Synth,
+    /// The synth, heard as late as load smoothing asks (not at all by default).
+    synth: Paced,
     delivery: Delivery,
     /// Preallocated with [`EVENT_CAPACITY`]; never grows.
     events: Vec<TimedEvent>,
@@ -60,7 +63,7 @@ impl Performer {
     /// Allocates (the event list).
     pub fn new(synth: Synth, delivery: Delivery) -> Self {
         Self {
-            synth,
+            synth: Paced::new(synth, 0),
             delivery,
             events: Vec::with_capacity(EVENT_CAPACITY),
             voices: [(None, 0); 128],
@@ -89,7 +92,25 @@ impl Performer {
     }
 
     pub fn synth(&self) -> &Synth {
-        &self.synth
+        self.synth.synth()
+    }
+
+    /// How late the host hears the synth, samples.
+    pub fn latency(&self) -> usize {
+        self.synth.latency()
+    }
+
+    /// Be heard `samples` late from now on, the synth rendering ahead within
+    /// that slack (0: as it plays). What is pending is dropped. Real-time safe.
+    pub fn set_latency(&mut self, samples: usize) {
+        self.synth.set_latency(samples);
+    }
+
+    /// Keep up (`true`: render as far as the events allow in every block, as
+    /// offline, so what changes between blocks lands on its sample) or spread
+    /// the work within the latency (the default). Real-time safe.
+    pub fn keep_up(&mut self, keep_up: bool) {
+        self.synth.set_budget(if keep_up { 1.0 } else { struck_engine::synth::PACED_BUDGET });
     }
 
     /// MPE on, its member channels bending `range` semitones each way, or off
@@ -102,7 +123,7 @@ impl Performer {
     /// Offline only (it waits): install the instrument the settings ask for
     /// now, built at once ([`Delivery::catch_up`]). Allocates: no.
     pub fn catch_up(&mut self) -> bool {
-        self.delivery.catch_up(&mut self.synth)
+        self.delivery.catch_up(self.synth.synth_mut())
     }
 
     /// Silence everything at the start of the next block. Real-time safe.
@@ -123,11 +144,13 @@ impl Performer {
         left: &mut [f32],
         right: &mut [f32],
     ) -> bool {
-        self.delivery.exchange(&mut self.synth);
-        self.synth.set_controls(controls);
+        self.delivery.exchange(self.synth.synth_mut());
+        self.synth.synth_mut().set_controls(controls);
         let n = left.len().min(right.len());
         self.events.clear();
         if std::mem::take(&mut self.reset_pending) {
+            // (What was rendered ahead and not yet heard goes too.)
+            self.synth.clear();
             self.events.push(TimedEvent::new(0, Event::Reset));
             self.pressure.reset();
             self.bends.reset();
@@ -167,7 +190,7 @@ impl Performer {
             let (voice, channel) = self.voices[k];
             port.key_ended(from as u32 + ended.time, ended.key, voice, channel);
             // Its note id is done with (a host may give it to another note).
-            if !self.synth.key_sounding(ended.key) {
+            if !self.synth.synth().key_sounding(ended.key) {
                 self.voices[k].0 = None;
             }
         }

@@ -16,6 +16,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+use clack_extensions::latency::PluginLatency;
 use clack_extensions::params::{ParamInfoBuffer, PluginParams};
 use clack_extensions::render::{PluginRender, RenderMode};
 use clack_extensions::state::PluginState;
@@ -612,6 +613,57 @@ fn a_host_that_renders_faster_than_real_time_without_saying_so_gets_the_same() {
     let heavy = bounce(&loaded, 0.8, None, at, RenderMode::Realtime);
     assert!(rms(&first[at..]) > 1e-3, "the note sounds");
     assert!(first[at..].iter().zip(&heavy[at..]).all(|(a, b)| a.to_bits() == b.to_bits()), "the new hammer came late");
+}
+
+#[test]
+fn load_smoothing_delays_the_sound_by_the_latency_it_reports() {
+    // On (the default), the plugin says it is 128 samples late at 48 kHz and
+    // is: the same samples as with it off, 128 later. Played in real time's
+    // pace and as fast as it goes (which renders as far as it may each block),
+    // in blocks of 64 and a chord on one sample among notes.
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let play = |smoothing: bool, pace: Duration| {
+        let mut instance = loaded.instance();
+        let ids = param_ids(&mut instance);
+        if !smoothing {
+            let mut changes = EventBuffer::new();
+            changes.push(&set(0, param(&ids, "Load smoothing"), 0.0));
+            let mut handle = instance.inactive_plugin_handle().expect("inactive");
+            let params: PluginParams = handle.get_extension().unwrap();
+            params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
+        }
+        let sizes = vec![64; (0.4 * FS) as usize / 64];
+        let mut script: Script = Vec::new();
+        let mut chord = EventBuffer::new();
+        for (i, key) in [36u16, 48, 55, 60, 64, 67, 72, 76, 79, 84, 88, 96].into_iter().enumerate() {
+            chord.push(&note_on(17, key, i as u32, 1.0));
+        }
+        script.push((10, chord));
+        let mut more = EventBuffer::new();
+        more.push(&note_on(3, 69, 20, 0.6));
+        script.push((40, more));
+        let run = process(&mut instance, &sizes, &script, pace);
+        let latency = {
+            let handle = instance.plugin_handle();
+            let ext: PluginLatency = handle.get_extension().expect("latency extension");
+            ext.get(&handle) as usize
+        };
+        (run.left, latency)
+    };
+    let (plain, none) = play(false, Duration::ZERO);
+    assert_eq!(none, 0, "no latency with load smoothing off");
+    let struck = 10 * 64 + 17;
+    assert!(plain[..struck].iter().all(|&v| v == 0.0) && rms(&plain[struck..struck + 128]) > 0.0, "off: heard at once");
+    for pace in [Duration::ZERO, Duration::from_micros(1300)] {
+        let (smoothed, latency) = play(true, pace);
+        assert_eq!(latency, 128, "the latency reported at 48 kHz");
+        assert!(smoothed[..latency].iter().all(|&v| v == 0.0), "heard before the latency");
+        assert!(
+            smoothed[latency..].iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "not the same samples {latency} later (pace {pace:?})"
+        );
+    }
 }
 
 #[test]

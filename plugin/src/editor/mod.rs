@@ -296,6 +296,13 @@ fn output_group(ui: &mut Ui, params: &StruckParams, setter: &ParamSetter) {
             slider(ui, "MPE bend range", &params.output.mpe_range, setter);
         }
         slider(ui, "Level", &params.output.level_db, setter);
+        toggle(
+            ui,
+            "Load smoothing",
+            "a chord's work over a few blocks (2.7 ms later)",
+            &params.output.smoothing,
+            setter,
+        );
         choice_row(ui, setter, &params.output.source, [OutputChoice::Microphones, OutputChoice::BridgeForce], |c| {
             match c {
                 OutputChoice::Microphones => "Microphones",

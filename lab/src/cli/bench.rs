@@ -11,11 +11,12 @@
 use std::io::Write;
 use std::time::Duration;
 
-use crate::perf::workload::{Cores, Extras};
+use crate::perf::workload::{Cores, Extras, KeyboardRun, Smoothing};
 use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
 use struck_engine::design::InstrumentKind;
 use struck_engine::struck_string::DEFAULT_SUBSTEPS;
+use struck_engine::synth::{PACED_BUDGET, Paced};
 
 use crate::cli::Failure;
 
@@ -139,7 +140,16 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The full keyboard, held and released.
     out.blank();
-    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One);
+    // Played as the plugin plays by default, with load smoothing, and without.
+    let latency = Paced::latency_for(SAMPLE_RATE_HZ);
+    let latency_ms = 1e3 * latency as f64 / SAMPLE_RATE_HZ;
+    out.line(format!(
+        "load smoothing (the plugin's default): heard {latency} samples ({latency_ms:.2} ms) late, rendering ahead up to {} of each block's period",
+        percent(PACED_BUDGET)
+    ));
+    out.blank();
+    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One, Smoothing::On);
+    let raw_keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One, Smoothing::Off);
     let period_ms = 1e3 * BLOCK as f64 / SAMPLE_RATE_HZ;
     out.line(format!(
         "full keyboard: {PIANO_KEYS} keys struck one per block and held {:.2} s, pedal down; a 10-key chord (velocity 102) halfway, a 20-key one (120) at three quarters",
@@ -164,6 +174,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     ] {
         out.line(format!("  {label:<width$}{} of {period_ms:.2} ms", percent(fraction), width = LABEL_WIDTH - 2));
     }
+    out.line(unsmoothed(&raw_keyboard));
     out.line(format!("after release: every key and the pedal up, {:.2} s", keyboard.release_s));
     let pass = goals.check("after_release_load", keyboard.after_release_load_fraction, AtMost, keyboard.load_fraction);
     out.goal(
@@ -184,7 +195,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The same with everything on.
     out.blank();
-    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One);
+    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One, Smoothing::On);
+    let raw_all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One, Smoothing::Off);
     out.line(
         "full keyboard, everything on: the same with sympathetic strings, phantom partials and the action's sounds"
             .to_string(),
@@ -205,14 +217,16 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         let pass = goals.check(name, fraction, Below, limit);
         out.goal(label, of_period(fraction), format!("< {}", percent(limit)), pass);
     }
+    out.line(unsmoothed(&raw_all));
     out.line(after_release(&all));
 
     // The same again with a second core (no goal: the plugin uses one).
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let helped = (cores > 1).then(|| workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::TwoShared));
+    let helped = (cores > 1)
+        .then(|| workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::TwoShared, Smoothing::Off));
     if let Some(helped) = &helped {
         out.line(
-            "  with a helper thread on a second core taking half of every piece of work (what a second core would give the plugin, which uses one; no goal):"
+            "  with a helper thread on a second core taking half of every piece of work, without load smoothing (what a second core would give the plugin, which uses one; no goal):"
                 .to_string(),
         );
         for (label, figure) in [
@@ -311,6 +325,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "worst_block_fraction": keyboard.worst_block_fraction,
                 "chord10_block_fraction": keyboard.chord_block_fraction,
                 "chord20_block_fraction": keyboard.chord20_block_fraction,
+                "latency_samples": latency,
+                "unsmoothed": unsmoothed_json(&raw_keyboard),
             },
             "full_keyboard_all": {
                 "keys": PIANO_KEYS,
@@ -321,6 +337,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "chord10_block_fraction": all.chord_block_fraction,
                 "chord20_block_fraction": all.chord20_block_fraction,
                 "after_release_load_fraction": all.after_release_load_fraction,
+                "latency_samples": latency,
+                "unsmoothed": unsmoothed_json(&raw_all),
             },
             "full_keyboard_all_helper": helped.map(|h| json!({
                 "threads": 2,
@@ -333,11 +351,20 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "keys": workload::CHORD10.len(),
                 "velocity": (workload::VELOCITY * 127.0).round() as u8,
                 "worst_block_fraction": all.chord_block_fraction,
+                "latency_samples": latency,
+                "unsmoothed_worst_block_fraction": raw_all.chord_block_fraction,
             },
             "chord20": {
                 "keys": workload::CHORD20.len(),
                 "velocity": (workload::CHORD20_VELOCITY * 127.0).round() as u8,
                 "worst_block_fraction": all.chord20_block_fraction,
+                "latency_samples": latency,
+                "unsmoothed_worst_block_fraction": raw_all.chord20_block_fraction,
+            },
+            "load_smoothing": {
+                "latency_samples": latency,
+                "latency_ms": latency_ms,
+                "budget_fraction": PACED_BUDGET,
             },
             "after_release": {
                 "release_s": keyboard.release_s,
@@ -405,7 +432,27 @@ fn of_period(fraction: f64) -> String {
 }
 
 /// What was still sounding after a keyboard run's release.
-fn after_release(run: &workload::KeyboardRun) -> String {
+/// The same workload without load smoothing (no latency): each block's own work.
+fn unsmoothed(run: &KeyboardRun) -> String {
+    format!(
+        "  without load smoothing (no latency): load {}, worst block {}, the 10-key chord's {}, the 20-key chord's {}",
+        percent(run.load_fraction),
+        percent(run.worst_block_fraction),
+        percent(run.chord_block_fraction),
+        percent(run.chord20_block_fraction)
+    )
+}
+
+fn unsmoothed_json(run: &KeyboardRun) -> Value {
+    json!({
+        "load_fraction": run.load_fraction,
+        "worst_block_fraction": run.worst_block_fraction,
+        "chord10_block_fraction": run.chord_block_fraction,
+        "chord20_block_fraction": run.chord20_block_fraction,
+    })
+}
+
+fn after_release(run: &KeyboardRun) -> String {
     match run.silent_after_s {
         Some(s) => format!("  every key silent {s:.2} s after the release"),
         None => format!("  {} keys still sounding {:.2} s after the release", run.keys_left, run.release_s),

@@ -186,12 +186,7 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
         let mut ended = Vec::new();
         for start in (0..total).step_by(64) {
             let end = (start + 64).min(total);
-            let block: Vec<TimedEvent> = timed
-                .iter()
-                .filter(|e| e.0 >= start && e.0 < end)
-                .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
-                .collect();
-            plain.process(&block, &mut l[start..end], &mut r[start..end]);
+            plain.process(&events_in(&timed, start, end), &mut l[start..end], &mut r[start..end]);
             ended.extend(plain.ended_keys().iter().map(|e| (start + e.time as usize, e.key)));
         }
         assert!(!ended.is_empty(), "no key fell silent");
@@ -224,11 +219,7 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
         let mut ended = Vec::new();
         for start in (0..heard).step_by(block) {
             let end = (start + block).min(heard);
-            let events: Vec<TimedEvent> = timed
-                .iter()
-                .filter(|e| e.0 >= start && e.0 < end)
-                .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
-                .collect();
+            let events = events_in(&timed, start, end);
             // (At random, a block's events on its first sample come in a call
             // of no samples before it, as a host may send them.)
             let first = if rule == "at random" { events.iter().take_while(|e| e.time == 0).count() } else { 0 };
@@ -259,6 +250,12 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
     }
 }
 
+/// The events of `timed` (at their samples) from `start` up to `end`, as a
+/// host block's.
+fn events_in(timed: &[(usize, Event)], start: usize, end: usize) -> Vec<TimedEvent> {
+    timed.iter().filter(|e| e.0 >= start && e.0 < end).map(|e| TimedEvent::new((e.0 - start) as u32, e.1)).collect()
+}
+
 /// What a synth gave over `seconds` in host blocks of `block`: both channels
 /// as computed (before they are rounded to f32), and each key reported
 /// fallen silent, with its sample.
@@ -271,12 +268,7 @@ fn play_exactly(synth: &mut Synth, seconds: f64, events: &[(f64, Event)], block:
     let mut start = 0;
     while start < total {
         let end = (start + block).min(total);
-        let block_events: Vec<TimedEvent> = timed
-            .iter()
-            .filter(|e| e.0 >= start && e.0 < end)
-            .map(|e| TimedEvent::new((e.0 - start) as u32, e.1))
-            .collect();
-        synth.process_f64(&block_events, &mut left[start..end], &mut right[start..end]);
+        synth.process_f64(&events_in(&timed, start, end), &mut left[start..end], &mut right[start..end]);
         ended.extend(synth.ended_keys().iter().map(|e| ((start as u64 + u64::from(e.time)) << 8) | u64::from(e.key)));
         start = end;
     }

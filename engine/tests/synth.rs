@@ -194,16 +194,25 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
     };
     let latency = Paced::latency_for(fs);
     assert_eq!(latency, 128);
-    for (block, rule) in [
-        (64, "as far as it may"),
-        (64, "as far as it must"),
-        (37, "at random"),
-        (200, "at random"),
-        (3000, "at random"),
-        (1, "at random"),
+    // And the latency changed while playing: from then on the synth is heard
+    // that late, what was queued before having happened first (what was
+    // rendered and not yet heard is dropped; a longer latency starts with
+    // silence).
+    let switch = (0.25 * fs) as usize / 64 * 64;
+    for (block, rule, switched) in [
+        (64, "as far as it may", None),
+        (64, "as far as it must", None),
+        (37, "at random", None),
+        (200, "at random", None),
+        (3000, "at random", None),
+        (1, "at random", None),
+        (64, "at random", Some((latency, 0))),
+        (64, "as far as it must", Some((0, latency))),
     ] {
         let (synth, _scope) = piano();
-        let mut paced = Paced::new(synth, latency);
+        let (first_latency, then) = switched.unwrap_or((latency, latency));
+        let switch = if switched.is_some() { switch } else { usize::MAX };
+        let mut paced = Paced::new(synth, first_latency);
         let mut seed = 0x9e37_79b9_u64 ^ block as u64;
         let mut ahead = |a: Ahead| match rule {
             "as far as it may" => a.may,
@@ -218,6 +227,10 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
         let (mut l, mut r) = (vec![0.0f32; heard], vec![0.0f32; heard]);
         let mut ended = Vec::new();
         for start in (0..heard).step_by(block) {
+            if start == switch {
+                paced.set_latency(then);
+                assert_eq!(paced.latency(), then);
+            }
             let end = (start + block).min(heard);
             let events = events_in(&timed, start, end);
             // (At random, a block's events on its first sample come in a call
@@ -228,23 +241,23 @@ fn a_paced_synth_is_the_same_synth_heard_later() {
             paced.process_with(&events[first..], &mut l[start..end], &mut r[start..end], &mut ahead);
             ended.extend(paced.ended_keys().iter().map(|e| (start + e.time as usize, e.key)));
         }
-        assert!(
-            l[..latency].iter().chain(&r[..latency]).all(|&v| v == 0.0),
-            "{block}, {rule}: heard before the latency"
-        );
+        let case = format!("blocks of {block}, rendering ahead {rule}, latency {first_latency} then {then}");
         for (channel, (heard, reference)) in [("left", (&l, &reference_left)), ("right", (&r, &reference_right))] {
-            assert!(
-                heard[latency..].iter().zip(reference.iter()).all(|(a, b)| a.to_bits() == b.to_bits()),
-                "{channel} differs: blocks of {block}, rendering ahead {rule}"
-            );
+            for (h, &v) in heard.iter().enumerate() {
+                let (latency, since) = if h < switch { (first_latency, 0) } else { (then, switch) };
+                // (Past the reference's end, nothing to compare.)
+                let expected = if h >= since + latency { reference.get(h - latency).copied() } else { Some(0.0) };
+                let Some(expected) = expected else { continue };
+                assert!(v.to_bits() == expected.to_bits(), "{channel} differs at {h}: {case}");
+            }
         }
         let keys: Vec<u8> = ended.iter().map(|e| e.1).collect();
         let reference_keys: Vec<u8> = reference_ended.iter().map(|e| e.1).collect();
-        assert_eq!(keys, reference_keys, "{block}, {rule}: keys fallen silent");
+        assert_eq!(keys, reference_keys, "{case}: keys fallen silent");
         for (&(at, key), &(fell, _)) in ended.iter().zip(&reference_ended) {
             assert!(
                 at <= fell + latency && at + 1 >= fell,
-                "{block}, {rule}: key {key} reported at {at}, fell silent at {fell}"
+                "{case}: key {key} reported at {at}, fell silent at {fell}"
             );
         }
     }

@@ -41,10 +41,14 @@ const ENDED: usize = 1024;
 pub struct Paced {
     synth: Synth,
     latency: usize,
+    /// A latency asked for, taken at the next block.
+    next_latency: Option<usize>,
     /// Samples the host has been given (and events' time origin).
     now: u64,
-    /// Samples the synth has rendered (each heard `latency` samples later).
+    /// Samples the synth has rendered (each heard `latency` samples later),
+    /// and up to which it was sounding.
     rendered: u64,
+    sounded_until: u64,
     /// Rendered samples, at their index modulo [`RING`].
     left: Box<[f32]>,
     right: Box<[f32]>,
@@ -52,8 +56,10 @@ pub struct Paced {
     queue: VecDeque<(u64, Event)>,
     /// One slice's events, relative to it.
     slice_events: Vec<TimedEvent>,
-    /// Keys fallen silent this block, at the sample the host hears it.
+    /// Keys fallen silent this block, at the sample the host hears it, and
+    /// whether each was struck again after.
     ended: Vec<KeyEnded>,
+    restruck: Vec<bool>,
     /// The block being played: its first sample and its length.
     block: (u64, usize),
     budget: f64,
@@ -93,13 +99,16 @@ impl Paced {
         Self {
             synth,
             latency: latency.min(MAX_PACED_LATENCY),
+            next_latency: None,
             now: 0,
             rendered: 0,
+            sounded_until: 0,
             left: vec![0.0; RING].into_boxed_slice(),
             right: vec![0.0; RING].into_boxed_slice(),
             queue,
             slice_events,
             ended: Vec::with_capacity(ENDED),
+            restruck: Vec::with_capacity(ENDED),
             block: (0, 0),
             budget: PACED_BUDGET,
             sample_rate_hz,
@@ -113,8 +122,9 @@ impl Paced {
         ((PACED_LATENCY_S * sample_rate_hz).round() as usize).min(MAX_PACED_LATENCY)
     }
 
+    /// How late the host hears the synth (from the next block, if changed).
     pub fn latency(&self) -> usize {
-        self.latency
+        self.next_latency.unwrap_or(self.latency)
     }
 
     pub fn synth(&self) -> &Synth {
@@ -125,10 +135,21 @@ impl Paced {
         &mut self.synth
     }
 
-    /// Whether anything still sounds or waits to: a key, the body, or events
-    /// and samples the synth has not reached yet.
+    /// Whether anything still sounds or waits to: a key, the body, events
+    /// and samples the synth has not reached yet, or samples it rendered
+    /// sounding that are not heard yet.
     pub fn is_sounding(&self) -> bool {
-        self.synth.is_sounding() || !self.queue.is_empty() || self.rendered < self.now
+        self.synth.is_sounding()
+            || !self.queue.is_empty()
+            || self.rendered < self.now
+            || self.sounded_until + self.latency as u64 > self.now
+    }
+
+    /// For each of [`Self::ended_keys`], whether the key was struck again
+    /// after it fell silent, in the events the host had sent by then (so the
+    /// voice that ended is the one before the key's last).
+    pub fn ended_restruck(&self) -> &[bool] {
+        &self.restruck
     }
 
     /// Keys that fell silent during the last [`Self::process`], each at the
@@ -138,16 +159,6 @@ impl Paced {
         &self.ended
     }
 
-    /// Drop what is rendered and not yet heard, and the events not yet
-    /// reached: the next block starts from silence (a host's reset). The
-    /// synth itself is reset by the [`Event::Reset`] that goes with it.
-    pub fn clear(&mut self) {
-        self.queue.clear();
-        self.rendered = self.now;
-        self.left.fill(0.0);
-        self.right.fill(0.0);
-    }
-
     /// Spend up to `fraction` of each block's period rendering ahead
     /// (default [`PACED_BUDGET`]; 1 or more: render as far as the events
     /// allow whatever it takes, as an offline render would).
@@ -155,10 +166,12 @@ impl Paced {
         self.budget = fraction.max(0.0);
     }
 
-    /// Be heard `latency` samples late from now on (clears what is pending).
+    /// Be heard `latency` samples late from the next block on. Everything
+    /// queued before it is rendered first (a note-off or a pedal let go is not
+    /// lost); the samples rendered and not yet heard are dropped, and a longer
+    /// latency is a moment's silence. Real-time safe.
     pub fn set_latency(&mut self, latency: usize) {
-        self.clear();
-        self.latency = latency.min(MAX_PACED_LATENCY);
+        self.next_latency = Some(latency.min(MAX_PACED_LATENCY));
     }
 
     /// Render `left.len()` samples of what the host hears, applying `events`
@@ -217,7 +230,14 @@ impl Paced {
     ) {
         let n = left.len().min(right.len());
         self.ended.clear();
+        self.restruck.clear();
         self.block = (self.now, n);
+        if let Some(latency) = self.next_latency.take() {
+            self.render_to(self.now);
+            self.left.fill(0.0);
+            self.right.fill(0.0);
+            self.latency = latency;
+        }
         if n == 0 {
             // No samples: the events still happen, here.
             for e in events {
@@ -340,6 +360,9 @@ impl Paced {
             self.synth.process(&self.slice_events, left, right);
             self.note_ended(from);
             self.rendered = from + len as u64;
+            if self.synth.is_sounding() {
+                self.sounded_until = self.rendered;
+            }
         }
     }
 
@@ -352,8 +375,15 @@ impl Paced {
             if self.ended.len() == self.ended.capacity() {
                 break;
             }
-            let heard = from + self.latency as u64 + u64::from(e.time);
+            let fell = from + u64::from(e.time);
+            let heard = fell + self.latency as u64;
             self.ended.push(KeyEnded { time: heard.saturating_sub(start).min(last) as u32, key: e.key });
+            // Struck again later in the same stretch, or still to come.
+            let in_stretch = self.slice_events.iter().map(|t| (from + u64::from(t.time), t.event));
+            let mut events = in_stretch.chain(self.queue.iter().copied());
+            let key = e.key;
+            self.restruck
+                .push(events.any(|(at, e)| at >= fell && matches!(e, Event::NoteOn { key: k, .. } if k == key)));
         }
     }
 }

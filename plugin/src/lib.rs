@@ -161,6 +161,8 @@ impl Plugin for StruckPlugin {
             if performer.latency() != latency {
                 performer.set_latency(latency);
             }
+            // (nice-plug tells the host after activation; a host that asked
+            // for the latency already may restart the plugin once for it.)
             context.set_latency_samples(latency as u32);
         }
         self.offline = buffer_config.process_mode == ProcessMode::Offline;

@@ -36,8 +36,12 @@ pub struct Performer {
     delivery: Delivery,
     /// Preallocated with [`EVENT_CAPACITY`]; never grows.
     events: Vec<TimedEvent>,
-    /// Who struck each key last (note id, channel), to name the voice when it ends.
+    /// Who struck each key last (note id, channel), to name the voice when it
+    /// ends, and who struck it before (whose end may come after the last
+    /// strike was sent: later in the same block, or, with load smoothing,
+    /// while the synth has not reached it).
     voices: [(VoiceId, u8); 128],
+    struck_before: [(VoiceId, u8); 128],
     pressure: PressureRouter,
     bends: BendRouter,
     hammers: HammerRouter,
@@ -67,6 +71,7 @@ impl Performer {
             delivery,
             events: Vec::with_capacity(EVENT_CAPACITY),
             voices: [(None, 0); 128],
+            struck_before: [(None, 0); 128],
             pressure: PressureRouter::default(),
             bends: BendRouter::default(),
             hammers: HammerRouter::default(),
@@ -149,8 +154,6 @@ impl Performer {
         let n = left.len().min(right.len());
         self.events.clear();
         if std::mem::take(&mut self.reset_pending) {
-            // (What was rendered ahead and not yet heard goes too.)
-            self.synth.clear();
             self.events.push(TimedEvent::new(0, Event::Reset));
             self.pressure.reset();
             self.bends.reset();
@@ -185,8 +188,14 @@ impl Performer {
         self.keyboard.watch(&self.events);
         self.synth.process(&self.events, &mut left[from..to], &mut right[from..to]);
         self.events.clear();
-        for ended in self.synth.ended_keys() {
+        for (ended, &restruck) in self.synth.ended_keys().iter().zip(self.synth.ended_restruck()) {
             let k = ended.key as usize & 127;
+            if restruck {
+                // The voice before the key's last strike fell silent.
+                let (voice, channel) = std::mem::take(&mut self.struck_before[k]);
+                port.key_ended(from as u32 + ended.time, ended.key, voice, channel);
+                continue;
+            }
             let (voice, channel) = self.voices[k];
             port.key_ended(from as u32 + ended.time, ended.key, voice, channel);
             // Its note id is done with (a host may give it to another note).
@@ -203,6 +212,7 @@ impl Performer {
         match event {
             NoteEvent::NoteOn { key: Key::Number(key), velocity, voice_id, channel, .. } if key < 128 => {
                 let channel = channel.number().unwrap_or(0);
+                self.struck_before[key as usize] = self.voices[key as usize];
                 self.voices[key as usize] = (voice_id.id(), channel);
                 let low = self.velocity_low.get_mut(channel as usize & 15).and_then(Option::take);
                 // Its own bend first: the strike sounds at the note's pitch.
@@ -839,6 +849,59 @@ mod tests {
         let (_, key, voice, channel) = port.ended[0];
         assert_eq!((key, voice, channel), (72, Some(42), 3));
         assert!(!p.synth().key_sounding(72));
+    }
+
+    #[test]
+    fn a_voice_that_falls_silent_after_its_key_is_struck_again_is_named_as_itself() {
+        // A key let go falls silent; the same key struck again (another note
+        // id) just after. The end is the first note's, the second's comes
+        // later: played as it comes in one block, and with load smoothing,
+        // the synth behind the host (rendering only what it must), where the
+        // second strike is sent long before the synth reaches the first
+        // note's end.
+        let wanted = Arc::new(Mutex::new(settings(InstrumentKind::Piano)));
+        let play = |smoothed: bool, again: Option<usize>| {
+            let (mut p, _workshop) = performer(&wanted);
+            if smoothed {
+                p.set_latency(128);
+                p.synth.set_budget(0.0);
+            }
+            let mut port = Port::new();
+            let (mut l, mut r) = (vec![0.0; 64], vec![0.0; 64]);
+            let mut ended = Vec::new();
+            for block in 0..(6.0 * FS) as usize / 64 {
+                let start = block * 64;
+                let mut events = Vec::new();
+                if block == 0 {
+                    events.push(note_on(10, 72, 0.8, 42, 3));
+                }
+                if block == 4800 / 64 {
+                    events.push(note_off(0, 72));
+                }
+                if let Some(at) = again.filter(|at| (start..start + 64).contains(at)) {
+                    events.push(note_on((at - start) as u32, 72, 0.8, 43, 5));
+                }
+                port.load(&events);
+                p.process(Controls::default(), &mut port, &mut l, &mut r);
+                ended.extend(
+                    port.ended.drain(..).map(|(t, key, voice, channel)| (start + t as usize, key, voice, channel)),
+                );
+            }
+            ended
+        };
+        let alone = play(false, None);
+        assert_eq!(alone.len(), 1, "{alone:?}");
+        let fell = alone[0].0;
+        for smoothed in [false, true] {
+            let ended = play(smoothed, Some(fell + 10));
+            let Some(&(at, key, voice, channel)) = ended.first() else { panic!("smoothed: {smoothed}: no end") };
+            assert_eq!((key, voice, channel), (72, Some(42), 3), "smoothed: {smoothed}, {ended:?}");
+            // (Heard that much later, reported no later than heard.)
+            assert!(
+                at >= fell && at <= fell + if smoothed { 128 } else { 0 },
+                "smoothed: {smoothed}: at {at}, fell {fell}"
+            );
+        }
     }
 
     #[test]

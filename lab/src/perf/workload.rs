@@ -244,14 +244,17 @@ pub fn full_keyboard(
         if each_run.is_empty() { of(blocks) } else { each_run.iter().map(|b| of(b)).fold(f64::INFINITY, f64::min) }
     };
     let held = 0..held_blocks;
+    // (Smoothed, a chord's work moves up to the latency's blocks later.)
+    let chord_blocks =
+        CHORD_BLOCKS + if smoothing == Smoothing::On { Paced::latency_for(SAMPLE_RATE_HZ).div_ceil(BLOCK) } else { 0 };
     let after = held_blocks..held_blocks + release_blocks;
     KeyboardRun {
         modes,
         running_modes_mean: running_sum / held_blocks as f64,
         load_fraction: mean(held.clone()),
         worst_block_fraction: worst(held),
-        chord_block_fraction: worst(chord_block..chord_block + CHORD_BLOCKS),
-        chord20_block_fraction: worst(chord20_block..chord20_block + CHORD_BLOCKS),
+        chord_block_fraction: worst(chord_block..chord_block + chord_blocks),
+        chord20_block_fraction: worst(chord20_block..chord20_block + chord_blocks),
         after_release_load_fraction: mean(after.clone()),
         after_release_worst_block_fraction: worst(after),
         keys_left,

@@ -224,8 +224,8 @@ impl Player {
         }
     }
 
-    /// Be heard `latency` samples late from now on (what is pending dropped),
-    /// under the allocation counter.
+    /// Be heard `latency` samples late from the next block on, under the
+    /// allocation counter.
     fn retime(&mut self, latency: usize) {
         WATCHED.with(|w| w.set(true));
         self.synth.set_latency(latency);

@@ -31,7 +31,7 @@ pub type VoiceId = Option<i32>;
 
 /// The audio thread's half: host events in, engine events and audio out.
 pub struct Performer {
-    /// The synth, heard as late as load smoothing asks (not at all by default).
+    /// The synth, heard as late as load smoothing asks (not at all until set).
     synth: Paced,
     delivery: Delivery,
     /// Preallocated with [`EVENT_CAPACITY`]; never grows.
@@ -105,8 +105,9 @@ impl Performer {
         self.synth.latency()
     }
 
-    /// Be heard `samples` late from now on, the synth rendering ahead within
-    /// that slack (0: as it plays). What is pending is dropped. Real-time safe.
+    /// Be heard `samples` late from the next block on, the synth rendering
+    /// ahead within that slack (0: as it plays). What is queued is rendered
+    /// first; what is rendered and not yet heard is dropped. Real-time safe.
     pub fn set_latency(&mut self, samples: usize) {
         self.synth.set_latency(samples);
     }

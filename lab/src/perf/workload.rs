@@ -178,14 +178,14 @@ pub fn full_keyboard(
     let (mut left, mut right) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
     let mut events = Vec::with_capacity(128);
     let mut each_run = Vec::new();
+    // (With no latency the synth renders each block as it comes, in one go.)
+    let latency = if smoothing == Smoothing::On { Paced::latency_for(SAMPLE_RATE_HZ) } else { 0 };
     for run in 0..runs.max(1) {
         let (mut synth, _scope) = piano(128, extras);
         if cores == Cores::TwoShared {
             synth.share_all_work().expect("a helper thread starts");
         }
         modes = synth.instrument().mode_count();
-        // (With no latency it renders each block as it comes, in one go.)
-        let latency = if smoothing == Smoothing::On { Paced::latency_for(SAMPLE_RATE_HZ) } else { 0 };
         let mut synth = Paced::new(synth, latency);
         let mut times = Vec::with_capacity(held_blocks + release_blocks);
         for b in 0..held_blocks + release_blocks {
@@ -245,8 +245,7 @@ pub fn full_keyboard(
     };
     let held = 0..held_blocks;
     // (Smoothed, a chord's work moves up to the latency's blocks later.)
-    let chord_blocks =
-        CHORD_BLOCKS + if smoothing == Smoothing::On { Paced::latency_for(SAMPLE_RATE_HZ).div_ceil(BLOCK) } else { 0 };
+    let chord_blocks = CHORD_BLOCKS + latency.div_ceil(BLOCK);
     let after = held_blocks..held_blocks + release_blocks;
     KeyboardRun {
         modes,

@@ -5,7 +5,11 @@ renders a few notes with a sustain pedal and a pitch bend.
 
 It fails (exit status 1, one line per failure) when the plugin is not an
 instrument, when a parameter of EXPECTED_PARAMETERS is missing, or when the
-audio is silent, not finite, blown up, or sounds before the first note.
+audio is silent, not finite, blown up, or sounds before the first note. The
+same notes are then rendered with load smoothing on and off: it fails unless
+the plugin reports 128 samples of latency at 48 kHz with it on and none with
+it off, and sounds the same samples either way, later by what it reports
+(or at the same time, had the host made up for it).
 
 Usage: pedalboard_check.py PATH/TO/Struck.vst3 [--wav OUT.wav]
        pedalboard_check.py --self-test   (the checks on made-up audio)
@@ -53,6 +57,10 @@ DURATION_S = 3.0
 # Nothing is played before this: the output must be silent until then.
 FIRST_NOTE_S = 0.25
 BLOCK_SIZE = 512
+
+# The latency load smoothing reports (2.7 ms: 128 samples at 48 kHz), and none
+# without it.
+SMOOTHED_LATENCY_SAMPLES = 128
 
 # Silence, sound and blow-up thresholds, in full-scale units.
 SILENT_PEAK = 1e-4  # -80 dBFS
@@ -143,6 +151,34 @@ def check_audio(audio):
     return failures
 
 
+def latency_failures(smoothed, plain, reported_smoothed, reported_plain):
+    """Failures of load smoothing's renders (`smoothed`, `plain`: the same
+    notes with it on and off) and the latencies the plugin reported, as
+    sentences."""
+    failures = []
+    if reported_smoothed != SMOOTHED_LATENCY_SAMPLES:
+        failures.append(
+            f"with load smoothing on the plugin reports {reported_smoothed} samples of latency, "
+            f"expected {SMOOTHED_LATENCY_SAMPLES} at {SAMPLE_RATE_HZ} Hz"
+        )
+    if reported_plain != 0:
+        failures.append(f"with load smoothing off the plugin reports {reported_plain} samples of latency, expected 0")
+    if smoothed.shape != plain.shape:
+        return failures + [f"the renders with load smoothing on and off differ in shape: {smoothed.shape}, {plain.shape}"]
+    if np.array_equal(smoothed, plain):
+        return failures
+    late = reported_smoothed - reported_plain
+    if 0 < late < smoothed.shape[-1]:
+        silent_at_first = not np.any(smoothed[:, :late])
+        if silent_at_first and np.array_equal(smoothed[:, late:], plain[:, :-late]):
+            return failures
+    largest = float(np.max(np.abs(smoothed.astype(np.float64) - plain)))
+    return failures + [
+        f"with load smoothing on the plugin does not sound the samples it sounds without it, "
+        f"{late} samples later (the reported latency) or at once (largest difference {largest:.3g})"
+    ]
+
+
 def self_test():
     """The checks themselves, on made-up audio (no plugin needed)."""
     n = int(DURATION_S * SAMPLE_RATE_HZ)
@@ -160,6 +196,14 @@ def self_test():
     assert any("blown up" in f for f in check_audio(good * 100))
     assert any("channel 1 is silent" in f for f in check_audio(np.stack([tone, 0 * tone])))
     assert any("shape" in f for f in check_audio(good[:1]))
+    late = SMOOTHED_LATENCY_SAMPLES
+    delayed = np.concatenate([np.zeros((2, late), np.float32), good[:, :-late]], axis=1)
+    assert latency_failures(delayed, good, late, 0) == [], latency_failures(delayed, good, late, 0)
+    assert latency_failures(good, good, late, 0) == []
+    assert any("does not sound" in f for f in latency_failures(delayed, good, late - 1, 0))
+    assert any("does not sound" in f for f in latency_failures(delayed * 1.001, good, late, 0))
+    assert any("reports 0 samples" in f for f in latency_failures(good, good, 0, 0))
+    assert any("off the plugin reports 5" in f for f in latency_failures(delayed, good, late, 5))
     assert missing_names(["A", "B"], ["B", "C"]) == ["A"]
     assert is_hidden_midi_parameter("MIDI Ch. 16 CC 127")
     assert is_hidden_midi_parameter("MIDI Ch. 1 Pitch Bend")
@@ -225,6 +269,23 @@ def main(argv):
             with AudioFile(args.wav, "w", SAMPLE_RATE_HZ, num_channels=audio.shape[0]) as f:
                 f.write(finite.astype(np.float32))
             print(f"wrote {args.wav}")
+
+        renders = {}
+        for smoothing in (True, False):
+            plugin.load_smoothing = smoothing
+            render = plugin(
+                midi_events(),
+                duration=DURATION_S,
+                sample_rate=SAMPLE_RATE_HZ,
+                num_channels=2,
+                buffer_size=BLOCK_SIZE,
+            )
+            renders[smoothing] = (np.asarray(render), plugin.reported_latency_samples)
+        (smoothed, reported_smoothed), (plain, reported_plain) = renders[True], renders[False]
+        print(
+            f"load smoothing: {reported_smoothed} samples of latency reported with it on, {reported_plain} off"
+        )
+        failures += latency_failures(smoothed, plain, reported_smoothed, reported_plain)
 
     sys.stdout.flush()
     for failure in failures:

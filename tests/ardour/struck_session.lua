@@ -1,7 +1,8 @@
 -- A session with Struck in Ardour 7, headless (ardour7-lua, the dummy
 -- backend). `create` makes a new session with a MIDI track playing
 -- Struck.vst3, a chord and a scale on it and some parameters away from their
--- defaults, saves it and renders the track through Struck; `reopen` loads the
+-- defaults (Ardour must read the 128 samples of latency load smoothing
+-- reports), saves it and renders the track through Struck; `reopen` loads the
 -- saved session as a user reopening it and renders it again. Both print the
 -- parameters as Ardour reads them back ("params: ...") and where the render's
 -- files are ("rendered: ..."), for the caller to compare.
@@ -27,6 +28,8 @@
 local mode, session_dir, render_name = arg[1], arg[2], arg[3]
 local SNAPSHOT = "struck"
 local RATE = 48000
+-- The latency Struck reports with load smoothing on (its default): 2.7 ms.
+local LATENCY = 128
 local LENGTH = 5 * RATE
 
 local function say(...) print("struck-session:", ...) end
@@ -130,6 +133,10 @@ end
 
 local function create()
   local track, processor = new_session(NOTES)
+  -- Ardour must see the latency, to line the track up with the others.
+  local latency = processor:signal_latency()
+  say("latency: " .. latency)
+  assert(latency == LATENCY, "Struck reports " .. latency .. " samples of latency to Ardour, expected " .. LATENCY)
   local plugin = processor:to_insert():plugin(0)
   for _, s in ipairs(SETTINGS) do
     assert(ARDOUR.LuaAPI.set_processor_param(processor, parameter_index(plugin, s[1]), s[2]), "could not set " .. s[1])

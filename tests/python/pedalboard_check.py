@@ -9,7 +9,7 @@ audio is silent, not finite, blown up, or sounds before the first note. The
 same notes are then rendered with load smoothing on and off: it fails unless
 the plugin reports 128 samples of latency at 48 kHz with it on and none with
 it off, and sounds the same samples either way, later by what it reports
-(or at the same time, had the host made up for it).
+(pedalboard does not make up an instrument's latency).
 
 Usage: pedalboard_check.py PATH/TO/Struck.vst3 [--wav OUT.wav]
        pedalboard_check.py --self-test   (the checks on made-up audio)
@@ -165,8 +165,6 @@ def latency_failures(smoothed, plain, reported_smoothed, reported_plain):
         failures.append(f"with load smoothing off the plugin reports {reported_plain} samples of latency, expected 0")
     if smoothed.shape != plain.shape:
         return failures + [f"the renders with load smoothing on and off differ in shape: {smoothed.shape}, {plain.shape}"]
-    if np.array_equal(smoothed, plain):
-        return failures
     late = reported_smoothed - reported_plain
     if 0 < late < smoothed.shape[-1]:
         silent_at_first = not np.any(smoothed[:, :late])
@@ -175,7 +173,7 @@ def latency_failures(smoothed, plain, reported_smoothed, reported_plain):
     largest = float(np.max(np.abs(smoothed.astype(np.float64) - plain)))
     return failures + [
         f"with load smoothing on the plugin does not sound the samples it sounds without it, "
-        f"{late} samples later (the reported latency) or at once (largest difference {largest:.3g})"
+        f"{late} samples later (the reported latency; largest difference {largest:.3g})"
     ]
 
 
@@ -199,7 +197,7 @@ def self_test():
     late = SMOOTHED_LATENCY_SAMPLES
     delayed = np.concatenate([np.zeros((2, late), np.float32), good[:, :-late]], axis=1)
     assert latency_failures(delayed, good, late, 0) == [], latency_failures(delayed, good, late, 0)
-    assert latency_failures(good, good, late, 0) == []
+    assert any("does not sound" in f for f in latency_failures(good, good, late, 0))
     assert any("does not sound" in f for f in latency_failures(delayed, good, late - 1, 0))
     assert any("does not sound" in f for f in latency_failures(delayed * 1.001, good, late, 0))
     assert any("reports 0 samples" in f for f in latency_failures(good, good, 0, 0))

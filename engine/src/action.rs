@@ -134,7 +134,13 @@ impl KeyBedPulse {
 /// spread over a soft contact of `contact_s`: mode n's velocity moves by
 /// J sin(k_n x) / m_n times the pulse's spectrum at f_n, m/s, for each mode
 /// in turn (`kick(i, dv)`).
-pub fn kick_modes(string: &StringModes, position: f64, impulse_n_s: f64, contact_s: f64, mut kick: impl FnMut(usize, f64)) {
+pub fn kick_modes(
+    string: &StringModes,
+    position: f64,
+    impulse_n_s: f64,
+    contact_s: f64,
+    mut kick: impl FnMut(usize, f64),
+) {
     let modal_mass = 0.5 * string.mass_per_length_kg_m * string.length_m;
     for (i, mode) in string.modes.iter().enumerate() {
         let shape = (mode.wavenumber_rad_m * position * string.length_m).sin();

@@ -105,7 +105,9 @@ mod tests {
     #[test]
     fn devices_fifos_and_directories_are_refused_without_waiting() {
         let dir = tempfile::tempdir().unwrap();
-        for (path, what) in [(Path::new("/dev/zero"), "a device"), (Path::new("/dev/urandom"), "a device"), (dir.path(), "a directory")] {
+        for (path, what) in
+            [(Path::new("/dev/zero"), "a device"), (Path::new("/dev/urandom"), "a device"), (dir.path(), "a directory")]
+        {
             let e = read_regular(path, 1 << 20).unwrap_err();
             assert_eq!(e.to_string(), format!("not a regular file ({what})"));
         }

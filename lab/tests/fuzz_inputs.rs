@@ -126,7 +126,8 @@ const CASE_FILES: &[&str] = &[
 ];
 
 /// A case's field names, for tweaks that add a field and for `--set` paths.
-static CASE_FIELDS: std::sync::LazyLock<Vec<&'static str>> = std::sync::LazyLock::new(struck_lab::strike::case::field_names);
+static CASE_FIELDS: std::sync::LazyLock<Vec<&'static str>> =
+    std::sync::LazyLock::new(struck_lab::strike::case::field_names);
 
 fn case_seeds() -> Vec<Value> {
     CASE_FILES.iter().map(|t| serde_json::from_str(t).expect("a case file is JSON")).collect()
@@ -163,7 +164,11 @@ fn accepted(case: &StrikeCase) -> Result<(), TestCaseError> {
 
 /// A `--set` edit: a field path (known names, an index, odd text) and a value.
 fn set_edit() -> impl Strategy<Value = String> {
-    let part = prop_oneof![proptest::sample::select(CASE_FIELDS.as_slice()).prop_map(str::to_string), "[0-9]{1,2}", "\\PC{0,6}",];
+    let part = prop_oneof![
+        proptest::sample::select(CASE_FIELDS.as_slice()).prop_map(str::to_string),
+        "[0-9]{1,2}",
+        "\\PC{0,6}",
+    ];
     let value = prop_oneof![
         "-?[0-9]{1,4}(\\.[0-9]{1,3})?(e-?[0-9]{1,3})?",
         Just("1e999".to_string()),

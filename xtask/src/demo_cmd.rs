@@ -109,7 +109,6 @@ pub fn demo(options: &Options) -> Result<()> {
         Step::new("build", "cargo xtask bundle struck --release (the `struck` binary, and the plugin bundles)", || {
             bundle::bundle(true, false)
         }),
-
         Step::new(
             "seed",
             "the seed's lab: Euphonics 12.2's Sounds 1-12, figures and animations (`struck demo`)",
@@ -136,9 +135,7 @@ pub fn demo(options: &Options) -> Result<()> {
             }
             Ok(())
         }),
-        Step::new("footprint", "each bundle under 15 MB", || {
-            footprint::check(true)
-        }),
+        Step::new("footprint", "each bundle under 15 MB", || footprint::check(true)),
     ];
     let names: Vec<&str> = steps.iter().map(|s| s.name).collect();
     let outcomes = steps::run("demo", &steps, &vec![true; steps.len()]);

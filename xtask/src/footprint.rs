@@ -21,8 +21,18 @@ use crate::util::relative;
 pub const MAX_BUNDLE_BYTES: u64 = 15 * 1024 * 1024;
 
 /// Crates the lab and the `struck` binary use that the plugin must not link.
-pub const LAB_ONLY_CRATES: &[&str] =
-    &["struck_lab", "plotters", "plotters_backend", "gif", "midly", "clap_builder", "hound", "indicatif", "rayon", "rayon_core"];
+pub const LAB_ONLY_CRATES: &[&str] = &[
+    "struck_lab",
+    "plotters",
+    "plotters_backend",
+    "gif",
+    "midly",
+    "clap_builder",
+    "hound",
+    "indicatif",
+    "rayon",
+    "rayon_core",
+];
 
 /// The crates whose Rust code a binary's symbol table names.
 pub fn crates_linked(binary: &Path) -> Result<BTreeSet<String>> {
@@ -51,7 +61,11 @@ fn crate_of(demangled: &str) -> Option<&str> {
 /// and the standalone.
 fn bundle_binaries() -> Result<Vec<(&'static str, PathBuf)>> {
     let standalone = bundle::bundled_dir()?.join(format!("{BUNDLE_NAME}{}", std::env::consts::EXE_SUFFIX));
-    Ok(vec![("CLAP plugin", bundle::clap_path()?), ("VST3 plugin", bundle::vst3_paths()?.1), ("standalone", standalone)])
+    Ok(vec![
+        ("CLAP plugin", bundle::clap_path()?),
+        ("VST3 plugin", bundle::vst3_paths()?.1),
+        ("standalone", standalone),
+    ])
 }
 
 /// Check the bundles in target/bundled: the plugins link none of
@@ -60,7 +74,8 @@ fn bundle_binaries() -> Result<Vec<(&'static str, PathBuf)>> {
 pub fn check(release: bool) -> Result<()> {
     let mut problems = Vec::new();
     for (what, path) in bundle_binaries()? {
-        let bytes = std::fs::metadata(&path).with_context(|| format!("{what} {} is missing", relative(&path).display()))?.len();
+        let bytes =
+            std::fs::metadata(&path).with_context(|| format!("{what} {} is missing", relative(&path).display()))?.len();
         let mb = bytes as f64 / (1024.0 * 1024.0);
         println!("{what:<12} {:>7.1} MB  {}", mb, relative(&path).display());
         if release && bytes > MAX_BUNDLE_BYTES {

@@ -198,7 +198,10 @@ fn ardour() -> Result<()> {
         bail!("{} is not there: run the bundle step first", relative(&vst3).display());
     }
     let logs = target_dir()?.join("ardour-logs");
-    run(Command::new("bash").arg(relative(&workspace_root().join(ARDOUR_SCRIPT))).arg(relative(&vst3)).arg(relative(&logs)))
+    run(Command::new("bash")
+        .arg(relative(&workspace_root().join(ARDOUR_SCRIPT)))
+        .arg(relative(&vst3))
+        .arg(relative(&logs)))
 }
 
 fn jack_session(release: bool) -> Result<()> {

@@ -135,7 +135,8 @@ pub fn course_string(key: &KeyDesign, damping: Damping, max_frequency_hz: f64) -
 /// hammers are (F = K C^alpha with the designs' measured laws).
 fn piano_key(midi_key: u8) -> KeyDesign {
     let elastic = Voicing { felt_hysteresis: 0.0, ..Voicing::default() };
-    key_design(InstrumentKind::Piano, &elastic, midi_key, MAX_FREQUENCY_HZ).expect("the piano has every C from C1 to C8")
+    key_design(InstrumentKind::Piano, &elastic, midi_key, MAX_FREQUENCY_HZ)
+        .expect("the piano has every C from C1 to C8")
 }
 
 /// The piano's C string of `octave` (1-8): the whole course as one string, Q 2000.

@@ -515,8 +515,13 @@ fn bench_json_holds_every_figure_flat_and_nested() {
             number("full_keyboard_all_helper.worst_block_fraction")
                 >= number("full_keyboard_all_helper.chord20_block_fraction")
         );
+        // How far apart the two cores were, before and after the shared chord.
+        for dotted in ["chord32.core_round_trip_ns", "chord32.core_round_trip_ns_after"] {
+            assert!(number(dotted) > 0.0, "{dotted} should be positive: {text}");
+        }
     } else {
         assert!(figure("full_keyboard_all_helper").is_null(), "{text}");
+        assert!(figure("chord32.core_round_trip_ns").is_null(), "{text}");
     }
     assert!(number("full_keyboard.running_modes_mean") <= number("full_keyboard.modes"));
     assert!(number("full_keyboard.worst_block_fraction") >= number("full_keyboard.chord10_block_fraction"));

@@ -248,7 +248,13 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     out.goal("speed", format!("{chord32_factor:.1}x real time"), format!(">= {CHORD32_FACTOR_MIN:.0}x"), pass);
     // The same with a second core (as `struck render` does by default).
     let threads = if cores > 1 { 2 } else { 1 };
+    // (How far apart the two cores are: on a virtual machine it changes from
+    // minute to minute, and with it what sharing gives. Taken before and
+    // after the shared runs, both reported.)
+    let round_trip = || if threads > 1 { perf::core_round_trip_ns() } else { None };
+    let round_trip_before = round_trip();
     let (threads_factor, _, shared) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, threads > 1);
+    let round_trip_after = round_trip();
     let identical = one.len() == shared.len() && one.iter().zip(&shared).all(|(a, b)| a.to_bits() == b.to_bits());
     let same = goals.check("chord32_threads_identical", f64::from(u8::from(identical)), AtLeast, 1.0);
     let pass = goals.check("chord32_threads", threads_factor, AtLeast, CHORD32_THREADS_FACTOR_MIN) && same;
@@ -262,6 +268,13 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         format!(">= {CHORD32_THREADS_FACTOR_MIN:.0}x"),
         pass,
     );
+    if let (Some(before), Some(after)) = (round_trip_before, round_trip_after) {
+        out.line(format!(
+            "  {:<width$}{before:.0} ns before, {after:.0} ns after (what each hand-over waits on; no goal)",
+            "a round trip between the two cores",
+            width = LABEL_WIDTH - 2
+        ));
+    }
 
     // Silence.
     out.blank();
@@ -396,6 +409,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "threads": threads,
                 "realtime_factor_threads": threads_factor,
                 "threads_identical": identical,
+                "core_round_trip_ns": round_trip_before,
+                "core_round_trip_ns_after": round_trip_after,
             },
             "idle": {
                 "audio_s": idle_s,

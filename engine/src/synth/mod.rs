@@ -240,9 +240,10 @@ pub struct Instrument {
     /// Where the keys are cut for sharing (those from `half` on go to the
     /// helper), set at each control block so that `low_share` of their
     /// estimated work lies below: a share that follows how long each half
-    /// took.
+    /// took, one for each block of the sympathetic trade's round (a block's
+    /// trade, on the calling thread, costs as its keys that take do).
     half: usize,
-    low_share: f64,
+    low_share: [f64; SYMPATHY_BLOCKS],
     /// The estimated work of the next control block, while sharing: its
     /// keys' ([`Key::work`]) and its body's modes while they ring.
     work: usize,
@@ -370,7 +371,7 @@ impl Instrument {
             rows_before: vec![KeyRow::default(); key_count],
             drive_before: None,
             half: 0,
-            low_share: 0.5,
+            low_share: [0.5; SYMPATHY_BLOCKS],
             work: 0,
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             sympathy,
@@ -405,8 +406,9 @@ impl Instrument {
     }
 
     /// Cut the keys where the share [`Self::low_share`] of the sounding ones'
-    /// work lies below, for the next control block.
-    fn balance(&mut self) {
+    /// work lies below, for a control block at `phase` of the trade's round.
+    fn balance(&mut self, phase: usize) {
+        let low_share = self.low_share[phase % SYMPATHY_BLOCKS];
         let work = |key: &Option<Key>| key.as_ref().filter(|k| k.is_sounding()).map_or(0, Key::work);
         let keys = self.keys.iter().map(work).sum::<usize>();
         self.work = keys + if self.soundboard.is_resting() { 0 } else { self.soundboard.mode_count() };
@@ -414,7 +416,7 @@ impl Instrument {
         let mut below = 0.0;
         self.half = self.keys.len();
         for (k, key) in self.keys.iter().enumerate() {
-            if below >= self.low_share * total {
+            if below >= low_share * total {
                 self.half = k;
                 break;
             }
@@ -426,7 +428,14 @@ impl Instrument {
     /// `helper` if given one, and drive the bridge with them in the keys'
     /// order (so where the keys were cut does not change a sample); `watch`
     /// (a key, its scope) records.
-    fn sound(&mut self, n: usize, helper: Option<&mut Helper>, mut watch: Option<(u8, &mut ScopeWriter)>) {
+    /// (`phase`: the control block's in the trade's round.)
+    fn sound(
+        &mut self,
+        n: usize,
+        phase: usize,
+        helper: Option<&mut Helper>,
+        mut watch: Option<(u8, &mut ScopeWriter)>,
+    ) {
         let Some(helper) = helper else {
             // One thread: each key drives the bridge as soon as it has sounded.
             let force = &mut self.rows[0].force[..n];
@@ -449,7 +458,7 @@ impl Instrument {
             || high_s = sound_keys(high, rows_high, n, watch_high).0,
         );
         self.drive_sounded(n);
-        self.even_out(low_s, high_s);
+        self.even_out(phase, low_s, high_s);
     }
 
     /// Drive the bridge with the rows of force of the keys that sounded over
@@ -485,16 +494,17 @@ impl Instrument {
         }
     }
 
-    /// Move the cut between the keys' halves toward where they would have
-    /// taken as long as each other, the lower half's work having taken
-    /// `low_s` and the upper's `high_s`.
-    fn even_out(&mut self, low_s: f64, high_s: f64) {
+    /// Move the cut between the keys' halves at `phase` of the trade's round
+    /// toward where they would have taken as long as each other, the lower
+    /// half's work having taken `low_s` and the upper's `high_s`.
+    fn even_out(&mut self, phase: usize, low_s: f64, high_s: f64) {
         if low_s > 0.0 && high_s > 0.0 {
             // The share below that would have taken as long as the share
             // above, had each key's work cost what it did, approached gently.
-            let (share, rest) = (self.low_share, 1.0 - self.low_share);
-            let even = (high_s / rest) / (low_s / share + high_s / rest);
-            self.low_share = (share + 0.1 * (even - share)).clamp(0.05, 0.95);
+            let share = &mut self.low_share[phase % SYMPATHY_BLOCKS];
+            let rest = 1.0 - *share;
+            let even = (high_s / rest) / (low_s / *share + high_s / rest);
+            *share = (*share + 0.1 * (even - *share)).clamp(0.05, 0.95);
         }
     }
 
@@ -1016,7 +1026,8 @@ impl Synth {
             }
         }
         if self.helper.is_some() {
-            self.current.balance();
+            let phase = self.trade_phase();
+            self.current.balance(phase);
         }
         self.outlet.set_rate(self.current.settings.sample_rate_hz);
     }
@@ -1048,8 +1059,9 @@ impl Synth {
     /// or stops the thread: not real-time safe.
     pub fn share_work(&mut self, share: bool) -> std::io::Result<()> {
         self.helper = if share { Some(self.helper.take().map_or_else(Helper::start, Ok)?) } else { None };
+        let phase = self.trade_phase();
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            instrument.balance();
+            instrument.balance(phase);
         }
         Ok(())
     }
@@ -1303,7 +1315,7 @@ impl Synth {
 
     fn control(&mut self, time: u32) {
         self.control_before_keys();
-        let tick = self.key_tick();
+        let (tick, phase) = (self.key_tick(), self.trade_phase());
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             // Each half of the keys where it sounds (its strings' state stays
             // in its core's cache), the keys that fell silent in order.
@@ -1317,7 +1329,7 @@ impl Synth {
             );
             push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
             if self.helper.is_some() {
-                instrument.balance();
+                instrument.balance(phase);
             }
         }
         // The outgoing instrument leaves once its keys are silent and its body has rung out.
@@ -1349,6 +1361,12 @@ impl Synth {
         let before = self.before_keys();
         let current = &mut *self.current;
         before.run(&mut current.keys, &mut current.sympathy, &mut self.lifting);
+    }
+
+    /// Where the control block under way stands in the sympathetic trade's
+    /// round (which keys take this block).
+    fn trade_phase(&self) -> usize {
+        ((self.clock / CONTROL_BLOCK as u64) % SYMPATHY_BLOCKS as u64) as usize
     }
 
     /// What a control block does before its keys are told, as it stands.
@@ -1399,7 +1417,7 @@ impl Synth {
         left: &mut [T],
         right: &mut [T],
     ) -> Stretch {
-        let (tick, before_keys) = (self.key_tick(), self.before_keys());
+        let (tick, before_keys, phase) = (self.key_tick(), self.before_keys(), self.trade_phase());
         let lifting = &mut self.lifting;
         let instrument = &mut *self.current;
         std::mem::swap(&mut instrument.bridge, &mut instrument.bridge_before);
@@ -1458,13 +1476,14 @@ impl Synth {
                 high_s = start.elapsed().as_secs_f64();
             },
         );
-        if control {
-            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
-            instrument.balance();
-        }
         if before.is_some() {
             // (The cut is weighed only where the helper's half had the body in it.)
-            instrument.even_out(low_s, high_s);
+            instrument.even_out(phase, low_s, high_s);
+        }
+        if control {
+            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
+            // (Cut for the next control block, which the next stretch begins.)
+            instrument.balance(phase + 1);
         }
         // (Once the keys are told: which are placed is known then.)
         instrument.leave_bridge(len, low_placed || high_placed);
@@ -1492,7 +1511,7 @@ impl Synth {
     }
 
     fn render<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
-        let n = left.len();
+        let (n, phase) = (left.len(), self.trade_phase());
         let [mix_l, mix_r] = &mut *self.outlet.mix;
         mix_l[..n].fill(0.0);
         mix_r[..n].fill(0.0);
@@ -1501,7 +1520,7 @@ impl Synth {
         for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
             instrument.start_bridge(n, output);
             let watch = scope_key.filter(|_| i == 0).map(|k| (k, &mut self.scope));
-            instrument.sound(n, self.helper.as_mut(), watch);
+            instrument.sound(n, phase, self.helper.as_mut(), watch);
             instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n], self.helper.as_mut());
         }
         self.write_out(left, right);

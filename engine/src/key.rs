@@ -873,6 +873,11 @@ impl Key {
         self.strings.iter().map(|s| s.bank().running()).sum()
     }
 
+    /// Whether a string of it is in contact with its exciter.
+    pub fn in_contact(&self) -> bool {
+        self.strings.iter().any(|s| s.in_contact())
+    }
+
     /// Its work in the next control block, in modes' steps a sample: its
     /// running modes, and a string in contact as [`CONTACT_WORK`] more.
     pub fn work(&self) -> usize {

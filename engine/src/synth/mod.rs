@@ -247,7 +247,7 @@ pub struct Instrument {
     /// Each key's estimated work ([`Key::work`], none while silent) as last
     /// weighed: once a round of the trade, and at every control block while
     /// a key was struck since or a string was in contact (weighing every key
-    /// took 0.7 us a control block, a twentieth of a shared stretch).
+    /// took 0.7 us a control block, a sixteenth of a shared stretch).
     key_work: Vec<u32>,
     blocks_since_weighed: usize,
     reweigh: bool,

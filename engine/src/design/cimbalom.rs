@@ -215,6 +215,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         exciter: ExciterDesign::Hammer {
             mass_kg: BEATER_MASS_KG.log(midi_key) * voicing.hammer_mass,
             law: voiced_law(HEAD, voicing),

@@ -275,6 +275,7 @@ fn course(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         exciter: ExciterDesign::Tangent {
             displacement_m,
             stretch_per_m2: stretch,

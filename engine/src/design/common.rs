@@ -134,7 +134,7 @@ pub(super) fn damper(decay_60_db_s: f64, rate_per_hz_s: f64, f1_hz: f64, travel_
 
 /// Where an instrument's strings lose their energy (physics reference 1.4 and 1.7).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Losses {
+pub struct Losses {
     /// eta_E of the wire.
     pub internal_loss_factor: f64,
     /// Re Y of the bridge, s/kg.
@@ -147,7 +147,8 @@ pub(super) struct Losses {
 /// 12.2.4). Waves it lets through are lost in the listing felt, which mostly damps
 /// the low partials (the mass reflects the high ones).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct TangentLeak {
+pub struct TangentLeak {
+    /// The tangent, key and finger's mass, kg, and the finger's resistance, N s/m.
     pub mass_kg: f64,
     pub resistance_ns_m: f64,
 }
@@ -175,7 +176,7 @@ impl Losses {
 /// `factor`. Should the string not build (it will then be refused with the reason
 /// when the key is set up), the physical model is left in with internal and bridge
 /// losses scaled.
-pub(super) fn with_losses(mut spec: StringSpec, losses: &Losses, factor: f64) -> StringSpec {
+pub(crate) fn with_losses(mut spec: StringSpec, losses: &Losses, factor: f64) -> StringSpec {
     let factor = factor.max(0.0);
     spec.damping = Damping::UniformQ(1.0e3);
     let Ok(string) = spec.build() else {

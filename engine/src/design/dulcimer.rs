@@ -291,6 +291,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared,
         bridge_coupling_s_kg,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         damper: None,
         gain_per_n: LEVEL.course_gain_per_n(&played, peak_n, pan),
         ring_gain_per_n: LEVEL.course_ring_gain_per_n(&played, peak_n),

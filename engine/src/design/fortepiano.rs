@@ -115,6 +115,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: losses.resistive_bridge(voicing),
+        losses: *losses,
         exciter: row.hammer(voicing),
         // 60 dB in 0.35 s at F1 shortening to 0.12 s at G6: light, quick dampers.
         // A Viennese action's dampers are light wooden levers with a

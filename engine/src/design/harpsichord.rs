@@ -142,6 +142,7 @@ pub(super) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         // The jack's cloth damper: 60 dB in 0.2 s.
         // A jack's cloth flag settles on the string as the jack falls onto
         // its key: only the cloth's own gram or so lands on the string.

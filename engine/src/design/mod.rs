@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::exciter::hammer::Hysteresis;
 use crate::exciter::hammer::contact::ContactLaw;
-use crate::string::StringSpec;
+use crate::string::{StringSpec, Tuning};
 
 mod cimbalom;
 mod clavichord;
@@ -26,6 +26,8 @@ mod harpsichord;
 mod piano;
 mod santoor;
 mod scale;
+
+pub use common::{Losses, TangentLeak};
 
 /// The instruments Struck plays.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -359,6 +361,9 @@ pub struct KeyDesign {
     /// The resistive bridge its strings' losses were set with: what the body's
     /// admittance takes the place of when the strings bear on the body.
     pub resistive_bridge: ResistiveBridge,
+    /// What its strings lose their energy to: their losses are set from it,
+    /// mode by mode, for the tension they are tuned to ([`KeyDesign::retuned`]).
+    pub losses: Losses,
     /// None: no damper (santoor, dulcimer).
     pub damper: Option<DamperDesign>,
     /// Output gain from bridge force (N) to a full-scale sample.
@@ -374,6 +379,42 @@ pub struct KeyDesign {
     /// How much of a hammer each string of the course meets, over an even
     /// share (mean 1 over the strings a hammer reaches; empty: all even).
     pub strike_shares: Vec<f64>,
+}
+
+impl KeyDesign {
+    /// This design (in equal temperament at 440 Hz) retuned to
+    /// `frequencies_hz`: every string turned to its key's frequency, as a
+    /// tuner turns the pins, its losses set again for the tension it is then
+    /// at (a string pulled tighter loses more into the bridge each cycle:
+    /// kept at the old Q, one tuned far up would lose less than its bridge
+    /// takes from it). Strings a shared key strikes apart from the key's own
+    /// (the other side of a dulcimer course) follow that key; a shared key
+    /// on the same strings (a fretted clavichord's tangent) is moved to its
+    /// own key's tuned pitch.
+    pub fn retuned(mut self, frequencies_hz: &[f64; 128]) -> Self {
+        let ratio = |k: u8| frequencies_hz[k as usize] / key_frequency_hz(k);
+        let home = ratio(self.midi_key);
+        for (i, spec) in self.strings.iter_mut().enumerate() {
+            let owner = self
+                .shared
+                .iter()
+                .find(|s| s.struck.contains(&i) && !self.struck.contains(&i))
+                .map_or(home, |s| ratio(s.midi_key));
+            spec.tuning = match spec.tuning {
+                Tuning::FirstPartialHz(f) => Tuning::FirstPartialHz(f * owner),
+                Tuning::TensionN(t) => Tuning::TensionN(t * owner * owner),
+            };
+            if owner != 1.0 {
+                *spec = common::with_losses(spec.clone(), &self.losses, self.resistive_bridge.loss_scale);
+            }
+        }
+        for shared in &mut self.shared {
+            if shared.struck.start < self.struck.end && self.struck.start < shared.struck.end {
+                shared.pitch_ratio *= ratio(shared.midi_key) / home;
+            }
+        }
+        self
+    }
 }
 
 /// The design of `midi_key` on `kind` with `voicing`, in equal temperament at

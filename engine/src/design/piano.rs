@@ -141,6 +141,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         exciter: row.hammer(voicing),
         damper: (midi_key <= LAST_DAMPED_KEY).then(|| {
             // 60 dB in 0.45 s at A0 shortening to 0.15 s at F#6.

@@ -113,6 +113,7 @@ pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> 
         shared: Vec::new(),
         bridge_coupling_s_kg: 0.0,
         resistive_bridge: LOSSES.resistive_bridge(voicing),
+        losses: LOSSES,
         exciter: ExciterDesign::Hammer {
             mass_kg: mallet_mass_kg * voicing.hammer_mass,
             law: voiced_law(law, voicing),

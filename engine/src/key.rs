@@ -155,6 +155,16 @@ const SYMPATHY_TOP_HZ: f64 = 5_000.0;
 /// sides do not).
 const SAME_PITCH: f64 = 0.01;
 
+/// The most a course's strings sharing a bridge point move each other over a
+/// sample: the bridge's admittance times the sum of their answers to its
+/// motion ([`StruckString::bridge_answer_ns_m`]). The trade is explicit, one
+/// sample behind, and grows without bound past about 1; a dulcimer's courses
+/// loop at 0.001 to 0.024 in equal temperament, and only a course tuned
+/// hundreds of times tighter reaches this. Over it the bridge is taken as
+/// that much stiffer for the whole course (a smaller admittance: still
+/// passive).
+const COURSE_LOOP_LIMIT: f64 = 0.25;
+
 /// The most strings of a unison that trade through the body (a santoor's
 /// course has four).
 const MAX_UNISON: usize = 8;
@@ -263,9 +273,11 @@ pub(crate) struct Key {
     /// Its partials as the other strings on the body meet them (empty: strings
     /// on the seed's rigid bridge, or a tangent's, which the listing damps).
     ports: Vec<Port>,
-    /// Re Y of the shared bridge point (0: strings not coupled), and the force each
-    /// string put on it last sample.
+    /// Re Y of the shared bridge point (0: strings not coupled), the share of
+    /// it the strings trade at sample by sample ([`COURSE_LOOP_LIMIT`]), and
+    /// the force each string put on it last sample.
     bridge_coupling_s_kg: f64,
+    bridge_share: f64,
     bridge_force_n: Vec<f64>,
     /// Scratch for this sample's forces.
     force_now_n: Vec<f64>,
@@ -392,7 +404,23 @@ impl Key {
                 unison = eps[..partials].iter().map(|&e| unison_step(e, n, step_s)).collect();
             }
             for string in &mut modes {
+                let alone: Vec<f64> = string.modes.iter().map(|m| m.decay_rate_s()).collect();
                 board.load(design.midi_key, design.resistive_bridge, n, string);
+                if design.bridge_coupling_s_kg > 0.0 {
+                    // Strings moving each other through a bridge point of
+                    // resistance Re Y (sample by sample, `render_coupled`)
+                    // lose at least what that resistance takes from each
+                    // alone: where the board under it takes less (between
+                    // its resonances) the others' pull would outweigh the
+                    // string's own loss, and a course strung tight enough
+                    // for its bridge losses to outweigh the wire's would
+                    // grow (a dulcimer tuned an octave a key did).
+                    for (mode, &rate_s) in string.modes.iter_mut().zip(&alone) {
+                        if mode.decay_rate_s() < rate_s {
+                            mode.q = mode.omega_rad_s / (2.0 * rate_s);
+                        }
+                    }
+                }
             }
         }
         let phantom = match (board, design.exciter, modes.get(design.struck.start)) {
@@ -486,6 +514,7 @@ impl Key {
             noise: ActionNoise::default(),
             ports,
             bridge_coupling_s_kg: design.bridge_coupling_s_kg.max(0.0),
+            bridge_share: 1.0,
             bridge_force_n: vec![0.0; design.strings.len()],
             force_now_n: vec![0.0; design.strings.len()],
             lanes: Box::new([[0.0; LANES]; CONTROL_BLOCK]),
@@ -552,6 +581,17 @@ impl Key {
         {
             p.scatter_free(&self.gather, at);
         }
+    }
+
+    /// The energy its strings hold, J, weighed by the square of what a
+    /// newton of theirs is heard at ([`Self::heard_per_n`]): the measure in
+    /// which the trade between keys is the physics' own (see
+    /// `synth::sympathy`), so the sum over the keys can only fall while
+    /// nothing strikes them.
+    #[cfg(test)]
+    pub fn heard_energy(&mut self) -> f64 {
+        self.settle();
+        self.heard_per_n().powi(2) * self.strings.iter().map(|s| s.bank().phasor_energy_j()).sum::<f64>()
     }
 
     /// Whether it is sounding: struck, and neither silent yet nor faded out.
@@ -1327,6 +1367,14 @@ impl Key {
             s.set_free_step(rate_s, rate_per_hz_s, pitch);
         }
         self.pitch_set = pitch;
+        if self.bridge_coupling_s_kg > 0.0 {
+            // Each string moves the bridge under the others sample by sample:
+            // the loop, Y times their answers, is held under the limit (the
+            // modes a bend takes past the top no longer answer).
+            let loop_gain =
+                self.bridge_coupling_s_kg * self.strings.iter().map(StruckString::bridge_answer_ns_m).sum::<f64>();
+            self.bridge_share = if loop_gain > COURSE_LOOP_LIMIT { COURSE_LOOP_LIMIT / loop_gain } else { 1.0 };
+        }
     }
 
     /// At rest and inactive (the notes struck are kept for [`Self::take_sounded`]).
@@ -1514,7 +1562,7 @@ impl Key {
     /// pass over its modes instead of two), the last sample's at the end.
     fn render_coupled(&mut self, out: &mut [f64], mut contact: Option<&mut [f32]>) {
         const MOST: usize = 8;
-        let y = self.bridge_coupling_s_kg;
+        let y = self.bridge_coupling_s_kg * self.bridge_share;
         // Each string's bridge move still to take.
         let mut moved = [None::<f64>; MOST];
         for (t, o) in out.iter_mut().enumerate() {

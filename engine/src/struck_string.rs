@@ -25,6 +25,10 @@ use crate::string::StringModes;
 /// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
 pub const DEFAULT_SUBSTEPS: usize = 8;
 
+/// A bend takes no mode past this fraction of the sample rate (the highest
+/// an instrument is built with, `synth::MAX_MODE_FREQUENCY_HZ` aside).
+pub const BENT_TOP: f64 = 0.45;
+
 /// A string with its modes, its exciter, and the coefficients for every step size.
 ///
 /// The tables an exciter needs at a given point are built by the `prepare_*`
@@ -40,6 +44,15 @@ pub struct StruckString {
     exciter: Exciter,
     /// [`ModalBank::kick`] factors for a motion of the bridge end (empty until prepared).
     bridge_kick: Vec<f64>,
+    /// How many of its modes (the lowest) lie under [`BENT_TOP`] of the
+    /// sample rate at the pitch it is bent to, and that pitch: only those
+    /// (the others are dying) take a motion of the bridge
+    /// ([`Self::move_bridge`]), and they take it over the pitch. (A bend
+    /// turns the modes faster and keeps their losses; the others' force then
+    /// changes as many times faster a sample, and moving the bridge by that
+    /// in full, a course bent up 18 semitones pulled its unison harder than
+    /// its losses allow, and grew.)
+    under_top: (usize, f64),
     /// The free step's poles with nothing added to the modes' losses (no
     /// damper on), at this pitch ratio: what a strike asks for nearly always
     /// (the damper lifts), put back instead of worked out again. A chord's
@@ -76,7 +89,17 @@ impl StruckString {
         let hold_samples = ((100e-6 * sample_rate_hz).ceil() as usize).max(2);
         // The tables are built with no losses added, at the string's own pitch.
         let lifted = (1.0, audio.save_poles());
-        Self { string, bank, audio, fine, hold_samples, exciter: Exciter::None, bridge_kick: Vec::new(), lifted }
+        Self {
+            string,
+            bank,
+            audio,
+            fine,
+            hold_samples,
+            exciter: Exciter::None,
+            bridge_kick: Vec::new(),
+            under_top: (usize::MAX, 1.0),
+            lifted,
+        }
     }
 
     pub fn string(&self) -> &StringModes {
@@ -146,12 +169,26 @@ impl StruckString {
     }
 
     /// The bridge under the string has changed its velocity by `dv_m_s` since the
-    /// last sample (pushed by other strings): every mode takes its share of the
-    /// jump. Needs [`Self::prepare_bridge_drive`] first (does nothing otherwise).
+    /// last sample (pushed by other strings): every mode under [`BENT_TOP`]
+    /// of the sample rate takes its share of the jump, over the pitch the
+    /// string is bent to. Needs [`Self::prepare_bridge_drive`] first (does
+    /// nothing otherwise).
     ///
     /// Allocates: no.
     pub fn move_bridge(&mut self, dv_m_s: f64) {
-        self.bank.kick(&self.bridge_kick, dv_m_s);
+        let n = self.under_top.0.min(self.bridge_kick.len());
+        self.bank.kick(&self.bridge_kick[..n], dv_m_s / self.under_top.1);
+    }
+
+    /// How much the string's bridge force changes over the next sample per
+    /// m/s its bridge end is moved by ([`Self::move_bridge`]), N s/m: about
+    /// its impedance sqrt(T mu), as the wave the motion launches says (a
+    /// bend turns its modes faster, and keeps their losses and their answer
+    /// to the bridge as built). Allocates: no.
+    pub fn bridge_answer_ns_m(&self) -> f64 {
+        let n = self.under_top.0.min(self.bridge_kick.len());
+        let turned: f64 = self.bridge_kick[..n].iter().enumerate().map(|(i, k)| self.audio.pole(i).im * k).sum();
+        (turned / self.under_top.1).abs()
     }
 
     /// [`Self::move_bridge`] by `dv_m_s`, then [`Self::tick`], to the bit: a
@@ -165,7 +202,11 @@ impl StruckString {
             return self.tick();
         }
         Tick {
-            bridge_force_n: self.bank.process_free_kicked(&self.audio, &self.bridge_kick, dv_m_s),
+            bridge_force_n: self.bank.process_free_kicked(
+                &self.audio,
+                &self.bridge_kick[..self.under_top.0.min(self.bridge_kick.len())],
+                dv_m_s / self.under_top.1,
+            ),
             ..Tick::default()
         }
     }
@@ -299,10 +340,21 @@ impl StruckString {
     /// Move the free step's poles: every mode's decay rate raised by
     /// `extra_decay_s + extra_decay_per_hz_s * f_n` (a damper) and every frequency
     /// scaled by `pitch_ratio` (a bend). Sub-steps keep the string's own poles.
+    /// A mode bent past [`BENT_TOP`] of the sample rate dies within a few
+    /// samples, as the string's build leaves out a mode there: its step
+    /// turns by nearly half a cycle a sample, and the gathering, which
+    /// divides by the sine of that turn to undo it, could no longer (a key
+    /// bent up by four octaves sent its partials there, and read them back
+    /// 1e40 times too large).
     ///
     /// Allocates: no. One exp and one sin/cos per mode, but for a lifted
     /// damper at the pitch last asked for with it: those poles are put back.
     pub fn set_free_step(&mut self, extra_decay_s: f64, extra_decay_per_hz_s: f64, pitch_ratio: f64) {
+        let top_rad_s = BENT_TOP * std::f64::consts::TAU / self.audio.step_s;
+        if pitch_ratio != self.under_top.1 {
+            let under = self.string.modes.iter().take_while(|m| pitch_ratio * m.damped_omega_rad_s() < top_rad_s);
+            self.under_top = (under.count(), pitch_ratio);
+        }
         let lifted = extra_decay_s == 0.0 && extra_decay_per_hz_s == 0.0;
         if lifted && pitch_ratio == self.lifted.0 {
             self.audio.restore_poles(&self.lifted.1);
@@ -310,7 +362,14 @@ impl StruckString {
         }
         for (i, mode) in self.string.modes.iter().enumerate() {
             let sigma = mode.decay_rate_s() + extra_decay_s + extra_decay_per_hz_s * mode.frequency_hz();
-            self.audio.set_pole(i, sigma, pitch_ratio * mode.damped_omega_rad_s());
+            let omega_rad_s = pitch_ratio * mode.damped_omega_rad_s();
+            if omega_rad_s < top_rad_s {
+                self.audio.set_pole(i, sigma, omega_rad_s);
+            } else {
+                // Held at the top, it falls by 1/e a sample (a pole of 0 would
+                // stop it at once, but a step taken back divides by the pole).
+                self.audio.set_pole(i, sigma.max(1.0 / self.audio.step_s), top_rad_s);
+            }
         }
         if lifted {
             self.lifted.0 = pitch_ratio;

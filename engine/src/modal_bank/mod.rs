@@ -549,6 +549,17 @@ impl ModalBank {
             .sum()
     }
 
+    /// The modes' energy as the sizes of their phasors have it, J: each
+    /// 1/2 m omega^2 |zeta / w|^2, its kinetic plus potential energy for a
+    /// lightly damped mode, which a free step shrinks at any pitch it is
+    /// bent to ([`Self::energy_j`] reads the motion at the mode's own
+    /// pitch, and swings as a bent mode turns). For checks.
+    pub fn phasor_energy_j(&self) -> f64 {
+        (0..self.running.min(self.len))
+            .map(|i| 0.5 * self.modal_mass_kg * self.omega[i] * self.omega[i] * self.state(i).norm_sqr())
+            .sum()
+    }
+
     /// Energy of the difference between this bank's motion and `other`'s (a bank
     /// for the same string), J.
     pub fn energy_of_difference_j(&self, other: &ModalBank) -> f64 {

@@ -51,6 +51,15 @@ const STEEL_MODULUS_PA: f64 = 2.0e11;
 /// more; the level control reaches that.
 pub const LONGITUDINAL_TO_BOARD: f64 = 0.025;
 
+/// The most the products pull on the bridge together, times the string's
+/// tension there (and [`LONGITUDINAL_TO_BOARD`]). The products are the first
+/// term of the stretch in the slope's square, which holds while the slope is
+/// small; a piano's bass at fortissimo pulls up to 3 times its tension with
+/// the longitudinal resonances, and a string tuned a hundred times slacker
+/// (a scale putting a bass key at 2 Hz), struck or set swinging by the
+/// pedal's lift, would pull a million times: its pull is held at this.
+const MOST_PULL_OVER_TENSION: f64 = 10.0;
+
 /// Quality factor of the longitudinal modes: our assumption (steel rings
 /// long; the bridge end's losses set it).
 const LONGITUDINAL_Q: f64 = 50.0;
@@ -216,6 +225,13 @@ impl Phantom {
                 (self.back_re[i], self.back_im[i], self.back_inv[i]) = inverse(pole.re, pole.im);
             }
             self.running = kept;
+            // Held where the slope's square no longer describes the string.
+            let total: f64 = self.found[..kept].iter().map(|f| f.0).sum();
+            let most = MOST_PULL_OVER_TENSION * lead.string().tension_n * LONGITUDINAL_TO_BOARD;
+            if total > most {
+                let scale = most / total;
+                self.re[..kept].iter_mut().chain(&mut self.im[..kept]).for_each(|v| *v *= scale);
+            }
         }
         // Clear what the last block left past this one's products.
         let (from, to) = (self.running, before.max(self.running).next_multiple_of(LANES).min(self.re.len()));

@@ -498,6 +498,7 @@ fn regulation(key: &mut Key, range: TouchRange, ringing: Touch, body: &mut Body,
     if at_ringing > 0.0 {
         table.iter_mut().for_each(|(_, g)| *g /= at_ringing);
     }
+    table.iter_mut().for_each(|(_, g)| *g = g.clamp(1.0 / MOST_REGULATED, MOST_REGULATED));
     Regulation { table, rings: points }
 }
 
@@ -524,18 +525,39 @@ struct Regulation {
 /// any touch, dB, before it is turned down (or up) there.
 const EVEN_DB: f64 = 3.0;
 
+/// The most a key is voiced down and up through the body, times its
+/// bridge-force gain (-40 to +26 dB): what a technician can do to a key's
+/// hammer and a maker to its stringing. Equal temperament voices every key
+/// of every instrument between 0.16 and 13.4; a scale that tunes a key where
+/// the body or its free partners ring absurdly against its bridge force
+/// (strings pulled tens of times over their tension) stays in it.
+const VOICING_RANGE: (f64, f64) = (0.01, 20.0);
+
+/// The most a key's regulation turns a touch up or down, times (12 dB):
+/// equal temperament regulates every key within -8.6 and +7.6 dB; a string
+/// tuned to a fraction of a hertz rings at one touch as it does at no other.
+const MOST_REGULATED: f64 = 4.0;
+
 /// The most a key is turned up at a touch to meet its neighbours, dB.
 const MAX_RAISE_DB: f64 = 12.0;
+
+/// The most a key is turned down at a touch to meet its neighbours, dB: a
+/// technician's needle softens a hammer, it does not silence it (equal
+/// temperament's deepest cut is 4.7 dB, the piano's top key; a scale that
+/// puts a key's neighbours in pitch where the body barely hears them would
+/// have it cut by hundreds of dB).
+const MAX_CUT_DB: f64 = 12.0;
 
 /// Even out `keys` (in key order, each with its voicing, every key turned
 /// down at least by `headroom`) touch by touch, as a technician voices a
 /// scale: where a key rings more than [`EVEN_DB`] over the mean of its
-/// neighbours at a touch (a treble hammer whose spectrum leaps at a softer
-/// touch than theirs), it is turned down there to that, and where it rings
-/// more than that under them, below its loudest touch, turned up to that (by
-/// at most [`MAX_RAISE_DB`]); then each touch is held under every harder one
-/// again, so a crescendo still never falls.
-pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64, range: TouchRange) {
+/// neighbours in pitch (`pitch_hz` by MIDI key) at a touch (a treble hammer
+/// whose spectrum leaps at a softer touch than theirs), it is turned down
+/// there to that (by at most [`MAX_CUT_DB`]), and where it rings more than
+/// that under them, below its loudest touch, turned up to that (by at most
+/// [`MAX_RAISE_DB`]); then each touch is held under every harder one again,
+/// so a crescendo still never falls.
+pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], pitch_hz: &[f64; 128], headroom: f64, range: TouchRange) {
     let step = regulation_step(range);
     // Each key's ring by touch as heard: its rings times its regulation and
     // its gain onto the body, squared.
@@ -546,14 +568,17 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64, range
             v.rings.iter().map(|&(t, r)| (t, r * (regulated(key.regulation(), t) * gain).powi(2))).collect()
         })
         .collect();
-    for i in 0..keys.len() {
+    // The keys in order of pitch (a scale may tune them in any order).
+    let mut by_pitch: Vec<usize> = (0..keys.len()).collect();
+    by_pitch.sort_by(|&a, &b| pitch_hz[keys[a].0 as usize & 127].total_cmp(&pitch_hz[keys[b].0 as usize & 127]));
+    for (place, &i) in by_pitch.iter().enumerate() {
         if heard[i].is_empty() {
             continue;
         }
-        let neighbours: Vec<&Vec<(f64, f64)>> = [i.checked_sub(1), Some(i + 1)]
+        let neighbours: Vec<&Vec<(f64, f64)>> = [place.checked_sub(1), Some(place + 1)]
             .into_iter()
             .flatten()
-            .filter_map(|j| heard.get(j))
+            .filter_map(|p| heard.get(*by_pitch.get(p)?))
             .filter(|h| !h.is_empty())
             .collect();
         if neighbours.is_empty() {
@@ -563,13 +588,16 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], headroom: f64, range
         let mut table = key.regulation().to_vec();
         let last = table.len().saturating_sub(1);
         for (j, ((t, g), &(_, own))) in table.iter_mut().zip(&heard[i]).enumerate() {
-            let mean_db = neighbours.iter().map(|h| 10.0 * regulated(h, *t).max(1e-300).log10()).sum::<f64>()
-                / neighbours.len() as f64;
+            let rings: Vec<f64> = neighbours.iter().map(|h| regulated(h, *t)).filter(|&r| r > 0.0).collect();
+            if rings.is_empty() {
+                continue;
+            }
+            let mean_db = rings.iter().map(|r| 10.0 * r.log10()).sum::<f64>() / rings.len() as f64;
             let own_db = 10.0 * own.max(1e-300).log10();
             let over_db = own_db - mean_db - EVEN_DB;
             let under_db = mean_db - EVEN_DB - own_db;
             if over_db > 0.0 {
-                *g *= 10f64.powf(-over_db / 20.0);
+                *g *= 10f64.powf(-over_db.min(MAX_CUT_DB) / 20.0);
             } else if under_db > 0.0 && j < last && own > 0.0 {
                 // Under them (its share of what rings with it, or a partial
                 // it all but misses, smaller at this touch than at the touch
@@ -669,6 +697,7 @@ fn voice_through_body(
     }
     let (heard, bridge) = ring_through_body(key, ringing, body.reborrow(), gain, &mut force);
     let voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
+    let voicing = voicing.clamp(VOICING_RANGE.0, VOICING_RANGE.1);
     // The loudest strike's first milliseconds through the body, at that voicing.
     key.probe(loudest, &mut force);
     let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);

@@ -18,6 +18,8 @@ mod event;
 mod paced;
 pub mod scope;
 mod sympathy;
+#[cfg(test)]
+mod tuning_safety;
 mod workshop;
 
 use serde::{Deserialize, Serialize};
@@ -35,7 +37,6 @@ use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing,
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
 use crate::share::{CachePadded, Helper};
 use crate::string::StringError;
-use crate::string::Tuning;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
@@ -284,7 +285,7 @@ impl Instrument {
         for design in designs {
             let midi_key = design.midi_key;
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
-            let design = tuned(design, &frequencies_hz);
+            let design = design.retuned(&frequencies_hz);
             {
                 match Key::build(design, fs, settings.kind, load.as_ref()) {
                     Ok(key) => {
@@ -361,7 +362,7 @@ impl Instrument {
         });
         let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
         voiced.sort_by_key(|v| v.0);
-        body_voicing::even_out(&mut voiced, headroom, range);
+        body_voicing::even_out(&mut voiced, &frequencies_hz, headroom, range);
         for (k, key, v) in &mut voiced {
             key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
         }
@@ -534,6 +535,14 @@ impl Instrument {
     /// Pairs of partials of different keys that trade through the body.
     pub fn sympathetic_pairs(&self) -> usize {
         self.sympathy.len()
+    }
+
+    /// The largest share of the sympathetic trade's budget one of its
+    /// partials asks for: under 1 the pairs trade as the body has them, over
+    /// 1 the crowded ones were scaled down to it (a scale with steps of a few
+    /// cents).
+    pub fn sympathetic_budget_used(&self) -> f64 {
+        self.sympathy.budget_used()
     }
 
     /// Modes of every string of every key (below [`MAX_MODE_FREQUENCY_HZ`]).
@@ -1644,31 +1653,4 @@ pub fn default_settings(kind: InstrumentKind, sample_rate_hz: f64) -> Instrument
         mics: MicPlacement::default(),
         strings_on_body: true,
     }
-}
-
-/// `design` (in equal temperament at 440 Hz) retuned to `frequencies_hz`: every
-/// string turned to its key's frequency, as a tuner turns the pins. Strings a
-/// shared key strikes apart from the key's own (the other side of a dulcimer
-/// course) follow that key; a shared key on the same strings (a fretted
-/// clavichord's tangent) is moved to its own key's tuned pitch.
-fn tuned(mut design: KeyDesign, frequencies_hz: &[f64; 128]) -> KeyDesign {
-    let ratio = |k: u8| frequencies_hz[k as usize] / key_frequency_hz(k);
-    let home = ratio(design.midi_key);
-    for (i, spec) in design.strings.iter_mut().enumerate() {
-        let owner = design
-            .shared
-            .iter()
-            .find(|s| s.struck.contains(&i) && !design.struck.contains(&i))
-            .map_or(home, |s| ratio(s.midi_key));
-        spec.tuning = match spec.tuning {
-            Tuning::FirstPartialHz(f) => Tuning::FirstPartialHz(f * owner),
-            Tuning::TensionN(t) => Tuning::TensionN(t * owner * owner),
-        };
-    }
-    for shared in &mut design.shared {
-        if shared.struck.start < design.struck.end && design.struck.start < shared.struck.end {
-            shared.pitch_ratio *= ratio(shared.midi_key) / home;
-        }
-    }
-    design
 }

@@ -64,6 +64,11 @@ const NEGLIGIBLE: f64 = 3e-3;
 /// board by itself over an interval.
 const PASSIVE_SHARE: f64 = 0.9;
 
+/// What a partial may take from all its partners over an interval, with what
+/// it loses by itself there, in the strings' energy measure (see
+/// [`hold_within_budget`]): half of the explicit step's limit of 2.
+const ROW_BUDGET: f64 = 1.0;
+
 /// A pair of partials as one of its keys meets it ([`Sympathy::pairs_of`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PairOf {
@@ -121,6 +126,9 @@ struct Slot {
 pub(crate) struct Sympathy {
     /// How many pairs there are.
     count: usize,
+    /// The largest share of [`ROW_BUDGET`] a partial's pairs asked for
+    /// ([`hold_within_budget`]): over 1, they were scaled down to it.
+    budget_used: f64,
     /// For each key, every pair it is in as it takes from the other key (a
     /// [`Link`]), in the order of the other key: a trade reads a key's pairs
     /// one after the other (looked up through a list of indices, each pair
@@ -164,6 +172,7 @@ impl Sympathy {
     pub fn none() -> Self {
         Self {
             count: 0,
+            budget_used: 0.0,
             by_key: vec![Vec::new(); 128],
             by_other: vec![Vec::new(); 128],
             slots: Vec::new(),
@@ -244,6 +253,7 @@ impl Sympathy {
                 });
             }
         }
+        let budget_used = hold_within_budget(&mut pairs, &entries, step_s);
         let mut by_key: Vec<Vec<u32>> = vec![Vec::new(); 128];
         for (n, p) in pairs.iter().enumerate() {
             by_key[p.key_a as usize].push(n as u32);
@@ -298,6 +308,7 @@ impl Sympathy {
             .collect();
         Self {
             count: pairs.len(),
+            budget_used,
             firsts,
             by_key,
             by_other,
@@ -318,6 +329,12 @@ impl Sympathy {
     /// How many pairs of partials trade.
     pub fn len(&self) -> usize {
         self.count
+    }
+
+    /// The largest share of the explicit trade's budget a partial asks for
+    /// ([`hold_within_budget`]; over 1 its pairs were scaled down).
+    pub fn budget_used(&self) -> f64 {
+        self.budget_used
     }
 
     /// Every pair key `k` is in, as `k` meets it: its partial and the other's,
@@ -507,6 +524,59 @@ impl Sympathy {
     }
 }
 
+/// Hold what the pairs hand each partial over an interval within what the
+/// explicit trade can carry: in the strings' energy measure, what a partial
+/// takes from all its partners over an interval, with what it loses there by
+/// itself (its unison's mean: its own pole and the pull of its fellow
+/// strings), stays under [`ROW_BUDGET`]. A passive board couples the
+/// partials with a positive semi-definite matrix K; the interval's step is
+/// then about 1 - h K, whose eigenvalues stay within the unit circle while
+/// h K's largest, which no row's sum exceeds, stays under 2. Where several
+/// keys' partials meet at one pitch (a scale with steps of a few cents puts
+/// dozens of keys there) their common motion drains into the board dozens of
+/// times as fast as one, faster than an interval can follow: each pair is
+/// then scaled down by the smaller of its two partials' factors (the pair
+/// stays symmetric, and a passive K scaled off its diagonal so stays
+/// passive). Equal temperament uses at most 0.7 of the budget on every
+/// instrument (a test), so its pairs are never touched.
+/// Returns the largest share of the budget a partial asked for.
+fn hold_within_budget(pairs: &mut [Pair], entries: &[Entry], step_s: f64) -> f64 {
+    // Each pair's kicks in the energy measure: into a per unit of b's
+    // summed phasor, times sqrt(N_a N_b c_b / c_a) (see the module's notes).
+    let kick = |into: Complex64, to: &Entry, from: &Entry| {
+        let (c_to, c_from) = (to.port.reach, from.port.reach);
+        if !(c_to > 0.0 && c_from > 0.0) {
+            return 0.0;
+        }
+        into.norm() * (to.count * from.count * c_from / c_to).sqrt()
+    };
+    let mut taken = vec![0.0f64; entries.len()];
+    for p in pairs.iter() {
+        let (a, b) = (&entries[p.a as usize], &entries[p.b as usize]);
+        taken[p.a as usize] += kick(p.into_a, a, b);
+        taken[p.b as usize] += kick(p.into_b, b, a);
+    }
+    let mut used = 0.0f64;
+    let factor: Vec<f64> = entries
+        .iter()
+        .zip(&taken)
+        .map(|(e, &taken)| {
+            let kept = ((e.port.lambda.re - (e.count - 1.0) * e.port.loss_s) * step_s).exp();
+            used = used.max((taken + 1.0 - kept) / ROW_BUDGET);
+            let room = ROW_BUDGET - (1.0 - kept);
+            if taken > room { (room / taken).max(0.0) } else { 1.0 }
+        })
+        .collect();
+    for p in pairs.iter_mut() {
+        let f = factor[p.a as usize].min(factor[p.b as usize]);
+        if f < 1.0 {
+            p.into_a *= f;
+            p.into_b *= f;
+        }
+    }
+    used
+}
+
 #[cfg(test)]
 mod tests {
     use num_complex::Complex64;
@@ -535,6 +605,30 @@ mod tests {
             }
         }
         assert_eq!(met, 2 * sympathy.len());
+    }
+
+    #[test]
+    fn equal_temperament_stays_within_the_trades_budget() {
+        // The budget only holds scales that crowd partials together: no
+        // instrument in equal temperament comes near it.
+        for kind in InstrumentKind::ALL {
+            let instrument = Instrument::build(&default_settings(kind, 48_000.0)).unwrap();
+            let used = instrument.sympathy.budget_used();
+            assert!(used < 0.75, "{kind}: {used:.3} of the budget");
+        }
+    }
+
+    #[test]
+    fn a_key_a_cent_from_the_next_is_held_within_the_budget() {
+        // Eighty-eight keys within 88 cents: dozens of partners at each
+        // partial, asking for far more than an interval can carry.
+        use crate::tuning::{ScalaScale, Temperament, TuningSettings};
+        let mut settings = default_settings(InstrumentKind::Piano, 48_000.0);
+        let scale = ScalaScale::parse("! c\ncents\n1\n!\n1.0\n").unwrap();
+        settings.tuning =
+            TuningSettings { temperament: Temperament::Scala, scale: Some(scale), ..TuningSettings::default() };
+        let instrument = Instrument::build(&settings).unwrap();
+        assert!(instrument.sympathy.budget_used() > 2.0, "{}", instrument.sympathy.budget_used());
     }
 
     #[test]

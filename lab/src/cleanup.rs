@@ -100,7 +100,7 @@ pub fn install(command: &'static str) {
         for dir in l.dirs.iter().rev() {
             let _ = std::fs::remove_dir(dir);
         }
-        eprintln!("{command}: {INTERRUPTED_MESSAGE}");
+        crate::console::err(format!("{command}: {INTERRUPTED_MESSAGE}"));
         std::process::exit(i32::from(EXIT_INTERRUPTED));
     });
 }

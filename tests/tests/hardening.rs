@@ -331,3 +331,138 @@ fn a_cases_name_is_printed_with_its_escapes_shown() {
     let said = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(!said.contains('\u{1b}') && said.contains("evil\\u{1b}[31m\\nname"), "{said:?}");
 }
+
+/// Where a test sends one of the program's streams.
+#[derive(Clone, Copy, Debug)]
+enum Stream {
+    /// stdout to /dev/full (every write fails: no space left).
+    FullStdout,
+    /// stdout to a pipe whose reader has gone (every write fails: broken pipe).
+    ClosedStdout,
+    /// stderr to /dev/full.
+    FullStderr,
+}
+
+/// Run `struck args` with `stream` broken; the exit code and what stderr
+/// said (nothing when stderr is the broken one).
+fn run_broken(stream: Stream, args: &[&str]) -> (Option<i32>, String) {
+    use std::process::{Command, Stdio};
+    let full = || Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    let mut command = Command::new(struck_tests::struck_binary());
+    command.args(args).stdin(Stdio::null());
+    match stream {
+        Stream::FullStdout => command.stdout(full()).stderr(Stdio::piped()),
+        Stream::ClosedStdout => command.stdout(Stdio::piped()).stderr(Stdio::piped()),
+        Stream::FullStderr => command.stdout(Stdio::null()).stderr(full()),
+    };
+    let mut child = command.spawn().unwrap();
+    // The reader goes before the program writes anything.
+    drop(child.stdout.take());
+    let done = child.wait_with_output().unwrap();
+    (done.status.code(), stderr(&done))
+}
+
+/// The exit status a command whose work succeeded has with `stream` broken,
+/// and what it says: a report lost to a full stdout is status 1 and one line;
+/// a reader that went away, or a stderr that cannot be written, changes nothing.
+fn assert_finished(stream: Stream, (code, said): &(Option<i32>, String), what: &str) {
+    assert!(!said.contains("panicked"), "{what}, {stream:?}: {said}");
+    match stream {
+        Stream::FullStdout => {
+            assert_eq!(*code, Some(1), "{what}, {stream:?}: {said}");
+            assert_eq!(said.lines().count(), 1, "{what}: one line: {said:?}");
+            assert!(said.contains("cannot print") && said.contains("No space left"), "{what}: {said}");
+        }
+        Stream::ClosedStdout | Stream::FullStderr => {
+            assert_eq!(*code, Some(0), "{what}, {stream:?}: {said}");
+            assert!(said.is_empty(), "{what}, {stream:?}: {said}");
+        }
+    }
+}
+
+const BROKEN: [Stream; 3] = [Stream::FullStdout, Stream::ClosedStdout, Stream::FullStderr];
+
+#[test]
+fn a_full_or_closed_stdout_or_a_full_stderr_never_stops_a_render_or_spoils_its_wav() {
+    let dir = tempfile::tempdir().unwrap();
+    let song = text(&midi("a4.mid"));
+    let reference = dir.path().join("reference.wav");
+    let run = struck(&["render", &song, "--out", &text(&reference), "--tail-s", "1"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let expected = std::fs::read(&reference).unwrap();
+    for stream in BROKEN {
+        let wav = dir.path().join(format!("{stream:?}.wav"));
+        let done = run_broken(stream, &["render", &song, "--out", &text(&wav), "--tail-s", "1"]);
+        assert_finished(stream, &done, "render");
+        assert!(std::fs::read(&wav).unwrap() == expected, "{stream:?}: the WAV is whole");
+    }
+    let left = std::fs::read_dir(dir.path()).unwrap().count();
+    assert_eq!(left, 4, "the WAVs and nothing else");
+}
+
+#[test]
+fn a_full_or_closed_stdout_never_stops_strike_chart_animate_or_help() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    for stream in BROKEN {
+        let name = format!("{stream:?}");
+        let out = dir.path().join(&name);
+        let done =
+            run_broken(stream, &["strike", &text(&case), "--out", &text(&out), "--wav", &text(&out.join("b.wav"))]);
+        assert_finished(stream, &done, "strike");
+        let trace = std::fs::read_to_string(out.join("trace.csv")).unwrap();
+        assert_eq!(trace.lines().count(), 4801, "{name}: every row of the trace");
+        assert!(std::fs::read_to_string(out.join("metrics.json")).unwrap().trim_end().ends_with('}'));
+        assert!(std::fs::read(out.join("b.wav")).unwrap().starts_with(b"RIFF"));
+
+        let gif = out.join("a.gif");
+        assert_finished(
+            stream,
+            &run_broken(stream, &["animate", &text(&case), "--out", &text(&gif), "--frames", "4"]),
+            "animate",
+        );
+        assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF89a"), "{name}");
+
+        let charts = out.join("charts");
+        assert_finished(stream, &run_broken(stream, &["chart", "stringing", "--out", &text(&charts)]), "chart");
+        let names: Vec<String> = std::fs::read_dir(&charts)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(names.iter().any(|n| n.ends_with(".png")) && !names.iter().any(|n| n.starts_with('.')), "{names:?}");
+        let hidden = std::fs::read_dir(&out)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'));
+        assert_eq!(hidden.count(), 0, "{name}: no temporary left");
+    }
+    // What was asked for is on stdout: a full one is status 1 and one line.
+    for args in [&["--help"][..], &["--version"], &["render", "--help"], &["help", "strike"]] {
+        let (code, said) = run_broken(Stream::FullStdout, args);
+        assert_eq!(code, Some(1), "{args:?}: {said}");
+        assert_eq!(said.lines().count(), 1, "{args:?}: {said:?}");
+        assert!(said.contains("cannot print the help: No space left"), "{args:?}: {said}");
+        for stream in [Stream::ClosedStdout, Stream::FullStderr] {
+            let (code, said) = run_broken(stream, args);
+            assert_eq!(code, Some(0), "{args:?}, {stream:?}: {said}");
+            assert!(said.is_empty(), "{args:?}, {stream:?}: {said}");
+        }
+    }
+    // A refusal with nowhere to say it keeps its status.
+    for args in [&["render", "missing.mid", "--out", "x.wav"][..], &["bench", "--seconds", "0"], &["no-such-command"]] {
+        let (code, _) = run_broken(Stream::FullStderr, args);
+        assert_eq!(code, Some(2), "{args:?}");
+    }
+}
+
+#[test]
+fn a_demo_whose_reader_went_away_still_writes_everything() {
+    // The demo prints its first line before the work, and more as it goes.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let done = run_broken(Stream::ClosedStdout, &["demo", "--quick", "--out", &text(&out)]);
+    assert_finished(Stream::ClosedStdout, &done, "demo");
+    assert!(std::fs::read_to_string(out.join("index.html")).unwrap().contains("</html>"));
+    let hidden =
+        std::fs::read_dir(&out).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'));
+    assert_eq!(hidden.count(), 0, "no temporary left");
+}

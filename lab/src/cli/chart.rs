@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use struck_engine::design::InstrumentKind;
 
 use crate::cli::Failure;
+use crate::console;
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
 
@@ -175,9 +176,9 @@ pub fn hammer_case(args: &HammerArgs) -> Result<StrikeCase, Failure> {
 
 fn report(drawn: &[Drawn], started: Instant) {
     for d in drawn {
-        println!("wrote {} and {}", d.png.display(), d.csv.display());
+        console::out(format!("wrote {} and {}", d.png.display(), d.csv.display()));
     }
-    println!("took {:.1} s", started.elapsed().as_secs_f64());
+    console::out(format!("took {:.1} s", started.elapsed().as_secs_f64()));
 }
 
 pub fn run(args: &ChartArgs) -> Result<(), Failure> {

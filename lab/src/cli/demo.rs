@@ -13,6 +13,7 @@ use struck_engine::design::InstrumentKind;
 use super::output::Staged;
 use crate::cli::Failure;
 use crate::cli::animate::{self, FilmOptions};
+use crate::console;
 use crate::demo_page::{self, Entry};
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
@@ -116,7 +117,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let out = staging.path();
     let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     let grid = if args.quick { QUICK_GRID } else { FULL_GRID };
-    println!("struck demo: the seed's sounds, figures and animations into {}", final_out.display());
+    console::out(format!("struck demo: the seed's sounds, figures and animations into {}", final_out.display()));
 
     // Sounds, in parallel.
     let sounds = seed_sounds::sounds();
@@ -239,11 +240,11 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     staged.commit()?;
     staging.commit_into(final_out, &[])?;
     let files = entries.iter().flat_map(Entry::links).count();
-    println!(
+    console::out(format!(
         "wrote {} files and {} in {:.1} s",
         files,
         final_out.join("index.html").display(),
         started.elapsed().as_secs_f64()
-    );
+    ));
     Ok(())
 }

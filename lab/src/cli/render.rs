@@ -27,6 +27,7 @@ use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperamen
 
 use super::output::Staged;
 use crate::cli::Failure;
+use crate::console;
 use crate::midi_file::{self, ReadOptions};
 
 /// Sample rates rendered, Hz.
@@ -199,16 +200,16 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         && let Err(e) = synth.share_work(true)
         && !args.quiet
     {
-        eprintln!("struck render: rendering on one thread (a second could not be started: {e})");
+        console::err(format!("struck render: rendering on one thread (a second could not be started: {e})"));
     }
 
     if !args.quiet && playable < notes {
-        eprintln!(
+        console::err(format!(
             "struck render: {} of {notes} are outside the {kind}'s keys (MIDI {}..={}) and stay silent",
             count(notes - playable, "note"),
             keys.start(),
             keys.end()
-        );
+        ));
     }
 
     let progress = (!args.quiet && io::stderr().is_terminal()).then(|| progress_bar(total));
@@ -279,13 +280,13 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             "silent".to_string()
         };
         let tuning_note = if tuned { format!(" ({})", settings.tuning.describe()) } else { String::new() };
-        println!(
+        console::out(format!(
             "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
              ({:.1}x real time), {peak_note}",
             super::shown(&args.out),
             count(notes, "note"),
             audio_s / wall_s.max(1e-9)
-        );
+        ));
     }
     Ok(())
 }

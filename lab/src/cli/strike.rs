@@ -7,6 +7,7 @@ use crate::strike::{self, LabRun};
 
 use super::output::{Staged, csv_field};
 use crate::cli::Failure;
+use crate::console;
 
 #[derive(clap::Args)]
 pub struct StrikeArgs {
@@ -151,11 +152,11 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             n => format!("{n} contacts, {:.3} ms in all", m.contact_time_s * 1e3),
         };
         let rebound = m.rebound_speed_m_s.map(|v| format!(", rebound {v:.3} m/s")).unwrap_or_default();
-        println!(
+        console::out(format!(
             "{name}: {} modes to {:.0} Hz; {contacts}{rebound}; bridge force {:.4} N RMS",
             m.string.mode_count, m.string.max_mode_frequency_hz, m.bridge_force_rms_n
-        );
-        println!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path));
+        ));
+        console::out(format!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path)));
     }
     Ok(())
 }

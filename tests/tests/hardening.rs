@@ -466,3 +466,77 @@ fn a_demo_whose_reader_went_away_still_writes_everything() {
         std::fs::read_dir(&out).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'));
     assert_eq!(hidden.count(), 0, "no temporary left");
 }
+
+/// Start `struck args`, send `signal` after `delay_ms`, and wait: the exit
+/// status as a shell reports it (130 for SIGINT, 143 for SIGTERM, whether the
+/// program stopped itself or the signal did, before the program could catch it).
+fn signalled(args: &[&str], signal: &str, delay_ms: u64) -> (i32, String) {
+    use std::os::unix::process::ExitStatusExt;
+    let child = std::process::Command::new(struck_tests::struck_binary())
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(delay_ms));
+    let sent = std::process::Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status();
+    assert!(sent.unwrap().success(), "{args:?} still ran at {delay_ms} ms");
+    let done = child.wait_with_output().unwrap();
+    let code = done.status.code().unwrap_or_else(|| 128 + done.status.signal().unwrap());
+    (code, stderr(&done))
+}
+
+/// Every file under `dir` (hidden ones too) with its bytes.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            files.push((path.clone(), Vec::new()));
+            files.extend(snapshot(&path));
+        } else {
+            files.push((path.clone(), std::fs::read(&path).unwrap()));
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn a_stop_signal_soon_after_the_start_leaves_every_existing_output_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let song = text(&midi("a4.mid"));
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // What the commands below would replace, and files they leave alone.
+    for name in ["x.wav", "x.gif", "metrics.json", "trace.csv", "index.html", "stringing-mass.png", "mine.txt"] {
+        std::fs::write(out.join(name), format!("the user's {name}")).unwrap();
+    }
+    let before = snapshot(dir.path());
+    let (gif, wav, folder) = (text(&out.join("x.gif")), text(&out.join("x.wav")), text(&out));
+    let commands: [(&[&str], &[u64]); 5] = [
+        // A big film (about two seconds' work), a long render, a long strike.
+        (
+            &["animate", &text(&case), "--out", &gif, "--frames", "1000", "--set", "sample_rate_hz=1536000"],
+            &[20, 50, 100, 300],
+        ),
+        (&["render", &song, "--out", &wav, "--tail-s", "600"], &[20, 50, 100, 300]),
+        (
+            &["strike", &text(&case), "--out", &folder, "--set", "duration_s=60", "--set", "sample_rate_hz=96000"],
+            &[50, 300],
+        ),
+        (&["chart", "hammer", "--grid", "200", "--out", &folder], &[50, 300]),
+        (&["demo", "--quick", "--out", &folder], &[50, 300]),
+    ];
+    for (args, delays) in commands {
+        for (i, &delay) in delays.iter().enumerate() {
+            let (signal, status) = if i % 2 == 0 { ("INT", 130) } else { ("TERM", 143) };
+            let (code, said) = signalled(args, signal, delay);
+            // (Stopped by the program, 130; by the signal itself, 128 + its number.)
+            assert!(code == 130 || code == status, "{} at {delay} ms, SIG{signal}: {code} {said}", args[0]);
+            assert!(!said.contains("panicked"), "{said}");
+            assert!(snapshot(dir.path()) == before, "{} at {delay} ms, SIG{signal}: every file as it was", args[0]);
+        }
+    }
+}

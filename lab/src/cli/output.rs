@@ -240,8 +240,15 @@ impl Staged {
 
     /// Put every staged file in place, all or none: what stood at a
     /// destination is set aside first and restored if any file fails.
+    /// Refused once a stop signal came: whatever stood there is kept (and
+    /// the temporaries are removed as `self` goes).
     pub fn commit(mut self) -> Result<(), Failure> {
-        cleanup::holding(|held| self.commit_held(held))
+        cleanup::holding(|held| {
+            if cleanup::interrupted() {
+                return Err(Failure::interrupted());
+            }
+            self.commit_held(held)
+        })
     }
 
     fn commit_held(&mut self, held: &mut cleanup::Held) -> Result<(), Failure> {
@@ -268,6 +275,9 @@ impl Staged {
             Ok(()) => {
                 for (old, _) in &aside {
                     let _ = fs::remove_file(old);
+                }
+                for (_, path) in &files {
+                    held.placed(path);
                 }
                 self.committed = true;
                 self.forget_all(&files, held);

@@ -540,3 +540,67 @@ fn a_stop_signal_soon_after_the_start_leaves_every_existing_output_as_it_was() {
         }
     }
 }
+
+/// Run `struck args` under `prlimit` limits (e.g. "--fsize=102400"), in `dir`.
+fn limited(limits: &[&str], args: &[&str]) -> Output {
+    std::process::Command::new("prlimit")
+        .args(limits)
+        .arg(struck_tests::struck_binary())
+        .args(args)
+        .output()
+        .expect("run prlimit (util-linux)")
+}
+
+#[test]
+fn a_file_size_limit_is_named_in_one_line_and_nothing_is_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    for name in ["x.wav", "metrics.json", "trace.csv", "x.gif", "stringing-piano-tension.png"] {
+        std::fs::write(out.join(name), format!("the user's {name}")).unwrap();
+    }
+    let before = snapshot(dir.path());
+    let limit = "--fsize=102400";
+    let said = "the file-size limit (ulimit -f, 102400 bytes)";
+    // Known before the work: a render's WAV, a strike's WAV.
+    let song = text(&midi("a4.mid"));
+    refused(&limited(&[limit], &["render", &song, "--out", &text(&out.join("x.wav"))]), said);
+    let wav = text(&out.join("x.wav"));
+    refused(
+        &limited(&[limit], &["strike", &text(&case), "--out", &text(&out), "--set", "duration_s=1", "--wav", &wav]),
+        said,
+    );
+    // Found while writing: a strike's trace (the signal would have killed it), a GIF, a chart's PNG.
+    refused(
+        &limited(&[limit], &["strike", &text(&case), "--out", &text(&out)]),
+        &format!("trace.csv: {said} is reached"),
+    );
+    let gif = text(&out.join("x.gif"));
+    refused(&limited(&["--fsize=20480"], &["animate", &text(&case), "--out", &gif]), "x.gif: the file-size limit");
+    refused(&limited(&["--fsize=40960"], &["chart", "stringing", "--out", &text(&out)]), ".png: the file-size limit");
+    assert!(snapshot(dir.path()) == before, "every file as it was, no temporary left");
+}
+
+#[test]
+fn a_memory_limit_too_small_for_the_work_is_named_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let out = dir.path().join("out");
+    // The documented limits: 60 s at 1.536 MHz holds about 8 GB.
+    let big = ["--set", "duration_s=60", "--set", "sample_rate_hz=1536000"];
+    let strike = |limit: &str| {
+        let mut args = vec!["strike", case.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend(big);
+        limited(&[limit], &args)
+    };
+    refused(&strike("--as=2000000000"), "the memory limit (ulimit -v, 1.9 GB) leaves");
+    refused(&strike("--data=2000000000"), "the data limit (ulimit -d, 1.9 GB) leaves");
+    let said = stderr(&strike("--as=2000000000"));
+    assert!(said.contains("(92160000 samples) would hold 7.6 GB in memory"), "{said}");
+    // A render holds little, but not nothing.
+    let wav = dir.path().join("x.wav");
+    refused(&limited(&["--as=60000000"], &["render", &text(&midi("a4.mid")), "--out", &text(&wav)]), "ulimit -v");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, ["case.json"], "nothing written");
+}

@@ -183,11 +183,11 @@ fn report(drawn: &[Drawn], started: Instant) {
 
 pub fn run(args: &ChartArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     // Drawn into a folder inside --out, then moved out of it together.
     let final_out = &args.out;
     let staging = super::output::StagedFolder::within(final_out)?;
     let out = staging.path();
+    let failed = |e: anyhow::Error| staging.failure(final_out, &e);
     let drawn = match &args.chart {
         Chart::Hammer(h) => {
             check_grid(h.grid.grid)?;

@@ -156,6 +156,7 @@ pub fn run() -> ExitCode {
         Command::Demo(_) => "struck demo",
     };
     crate::cleanup::install(command);
+    room::ignore_file_size_signal();
     let result = match cli.command {
         Command::Strike(args) => strike::run(&args),
         Command::Bench(args) => bench::run(&args),

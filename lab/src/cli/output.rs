@@ -17,6 +17,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::failure::{Failure, shown};
+use super::room;
 use crate::cleanup;
 
 /// A file's identity on its file system (the same file under any name).
@@ -168,9 +169,16 @@ impl Staged {
                 Ok(())
             }
             Err(e) => {
+                // (A write past `ulimit -f` fails with an error the writer may
+                // have wrapped; the file's length tells.)
+                let limit = room::at_file_size_limit(&temporary).or_else(|| room::file_size_error(&e.to_string()));
+                let failure = match limit {
+                    Some(limit) => room::file_size_failure(named, limit),
+                    None => write_failure("write", named, &e),
+                };
                 let _ = fs::remove_file(&temporary);
                 cleanup::forget(&temporary);
-                Err(write_failure("write", named, &e))
+                Err(failure)
             }
         }
     }
@@ -363,6 +371,36 @@ impl StagedFolder {
     /// Where to draw.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// `failure` of a file drawn here, naming it as it would be in `out`.
+    pub fn as_out(&self, out: &Path, failure: Failure) -> Failure {
+        let message = failure.message.replace(&shown(&self.path), &shown(out));
+        Failure { message, ..failure }
+    }
+
+    /// The failure of drawing into the folder for `out`: the file-size limit
+    /// if a file drawn reached it (named as it would be in `out`), else `error`.
+    pub fn failure(&self, out: &Path, error: &anyhow::Error) -> Failure {
+        let text = format!("{error:#}");
+        let full = fs::read_dir(&self.path)
+            .into_iter()
+            .flatten()
+            .filter_map(Result::ok)
+            .find_map(|e| room::at_file_size_limit(&e.path()).map(|limit| (Some(e.file_name()), limit)));
+        // A chart's writer removes what it could not finish, and names it.
+        let named = || {
+            error.chain().find_map(|e| match e.downcast_ref::<crate::plot::PlotError>() {
+                Some(crate::plot::PlotError::Write { path, .. }) => path.file_name().map(|n| n.to_os_string()),
+                _ => None,
+            })
+        };
+        match full.or_else(|| room::file_size_error(&text).map(|limit| (named(), limit))) {
+            Some((name, limit)) => {
+                room::file_size_failure(&name.map_or_else(|| out.to_path_buf(), |n| out.join(n)), limit)
+            }
+            None => Failure::failed(text),
+        }
     }
 
     /// Put every file drawn into `out` together (see [`Staged::commit`]),

@@ -38,6 +38,11 @@ pub const MAX_TAIL_S: f64 = 600.0;
 pub const MAX_BLOCK_SIZE: usize = 8192;
 /// A WAV's sizes are 32-bit: the data may not exceed this many bytes.
 const MAX_WAV_DATA_BYTES: u64 = u32::MAX as u64 - 64;
+/// Bytes before a float WAV's samples (hound's RIFF, fmt and fact chunks).
+pub const WAV_HEADER_BYTES: u64 = 68;
+/// Memory a render holds, whatever the song's length (the WAV is written as
+/// it is played): at most 20 MB measured for every instrument, rounded up.
+const RENDER_PEAK_BYTES: u64 = 32 << 20;
 
 /// Samples between progress-bar updates.
 const PROGRESS_EVERY: u64 = 1 << 15;
@@ -160,6 +165,14 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         return Err(Failure::bad_input(format!(
             "{shown}: {:.0} s at {sample_rate_hz} Hz would exceed the 4 GB a WAV file can hold",
             total as f64 / fs_hz
+        )));
+    }
+    super::room::check_file_size(&args.out, WAV_HEADER_BYTES + total * 8)?;
+    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES) {
+        return Err(Failure::bad_input(format!(
+            "the {kind} would hold {} in memory while it plays; {}; nothing was written",
+            super::room::size_text_rounded(RENDER_PEAK_BYTES),
+            room.told
         )));
     }
 

@@ -97,8 +97,14 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     // Room for the trace in memory and the files on disk, before starting.
     let rows = case.sample_count() as u64;
     let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
+    if let Some(wav) = &args.wav {
+        super::room::check_file_size(wav, super::render::WAV_HEADER_BYTES + rows * 4)?;
+    }
     super::room::check(&format!("{shown} ({rows} samples)"), strike::run::peak_bytes(&case), disk, &args.out)?;
-    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).ok_or_else(Failure::interrupted)?;
+    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).map_err(|stopped| match stopped {
+        strike::run::Stopped::Interrupted => Failure::interrupted(),
+        strike::run::Stopped::OutOfMemory { bytes } => out_of_memory(&format!("{shown} ({rows} samples)"), bytes),
+    })?;
     check_finite(&result)?;
     check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
 
@@ -128,7 +134,11 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             None if peak > 0.0 => NORMALISED_PEAK / peak,
             None => 1.0,
         };
-        let samples: Vec<f32> = result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32).collect();
+        let mut samples: Vec<f32> = Vec::new();
+        samples
+            .try_reserve_exact(result.trace.len())
+            .map_err(|_| out_of_memory(&format!("--wav {}", super::shown(wav)), rows * 4))?;
+        samples.extend(result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32));
         if !samples.iter().all(|s| s.is_finite()) {
             return Err(Failure::bad_input(format!(
                 "--wav-gain-db {:.1}: the loudest sample, {:.3e} N, would leave a float WAV's range",
@@ -159,6 +169,15 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         console::out(format!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path)));
     }
     Ok(())
+}
+
+/// What a strike says when `bytes` of memory in one piece could not be had.
+fn out_of_memory(what: &str, bytes: u64) -> Failure {
+    let limit = super::room::tightest_memory_limit().map(|l| format!(" ({l})")).unwrap_or_default();
+    Failure::bad_input(format!(
+        "{what}: cannot get {} of memory{limit}; nothing was written",
+        super::room::size_text_rounded(bytes)
+    ))
 }
 
 fn write_trace(w: &mut impl Write, result: &LabRun) -> std::io::Result<()> {

@@ -604,3 +604,57 @@ fn a_memory_limit_too_small_for_the_work_is_named_in_one_line() {
     let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(left, ["case.json"], "nothing written");
 }
+
+#[test]
+fn temporaries_left_by_a_killed_struck_are_swept_when_a_command_next_writes_there() {
+    /// A child killed when the test ends, however it ends.
+    struct Running(std::process::Child);
+    impl Drop for Running {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // A process that has ended, and a struck still at work.
+    let mut gone = std::process::Command::new("true").spawn().unwrap();
+    let dead = gone.id();
+    gone.wait().unwrap();
+    let song = text(&midi("a4.mid"));
+    let elsewhere = text(&dir.path().join("long.wav"));
+    let working = Running(
+        std::process::Command::new(struck_tests::struck_binary())
+            .args(["render", &song, "--out", &elsewhere, "--tail-s", "600", "-q"])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let live = working.0.id();
+    let stale_file = out.join(format!(".struck-{dead}-0.part"));
+    let stale_folder = out.join(format!(".struck-{dead}.part"));
+    let set_aside = out.join(format!(".struck-{dead}-0.old"));
+    let in_use = out.join(format!(".struck-{live}-3.part"));
+    let stale = || {
+        std::fs::write(&stale_file, vec![0u8; 1 << 16]).unwrap();
+        std::fs::create_dir(&stale_folder).unwrap();
+        std::fs::write(stale_folder.join("half.png"), "half").unwrap();
+    };
+    stale();
+    std::fs::write(&set_aside, "what stood at an output").unwrap();
+    std::fs::write(&in_use, "being written").unwrap();
+
+    let run = struck(&["render", &song, "--out", &text(&out.join("x.wav")), "--tail-s", "0", "-q"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stale_file.exists() && !stale_folder.exists(), "a dead process's temporaries are swept");
+    assert!(set_aside.exists(), "what was set aside is the user's, never swept");
+    assert!(in_use.exists(), "a working struck's temporary is kept");
+    // A chart (a folder of files) sweeps its folder too.
+    stale();
+    let run = struck(&["chart", "stringing", "--out", &text(&out)]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stale_file.exists() && !stale_folder.exists(), "swept");
+    assert!(in_use.exists() && set_aside.exists(), "kept");
+    drop(working);
+}

@@ -20,6 +20,66 @@ use super::failure::{Failure, shown};
 use super::room;
 use crate::cleanup;
 
+/// The process that made a temporary named `name` (`.struck-PID-N.part`, a
+/// file, or `.struck-PID.part`, a folder), if it is one.
+fn temporary_owner(name: &str) -> Option<u32> {
+    let middle = name.strip_prefix(".struck-")?.strip_suffix(".part")?;
+    let (pid, n) = middle.split_once('-').unwrap_or((middle, "0"));
+    if !(n.bytes().all(|b| b.is_ascii_digit()) && !n.is_empty()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Whether the process `pid` could still be a struck writing its temporaries:
+/// it runs, and is a struck (its name or its program is ours). None when
+/// that cannot be known (no /proc).
+fn may_be_writing(pid: u32) -> Option<bool> {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return None;
+    }
+    let dir = proc.join(pid.to_string());
+    if !dir.exists() {
+        return Some(false);
+    }
+    let named_struck = fs::read_to_string(dir.join("comm")).is_ok_and(|c| c.contains("struck"));
+    let ours = match (fs::read_link(dir.join("exe")), fs::read_link(proc.join("self/exe"))) {
+        (Ok(theirs), Ok(mine)) => theirs == mine,
+        // (Another user's process: it may be.)
+        (Err(_), _) => true,
+        _ => false,
+    };
+    Some(named_struck || ours)
+}
+
+/// Remove, from the folder `dir`, the temporaries a struck that was killed
+/// (SIGKILL, a crash, the power) left there: `.struck-PID-N.part` files and
+/// `.struck-PID.part` folders whose process is gone. (What stood at an
+/// output and was set aside while it was replaced, `.struck-PID-N.old`, is
+/// the user's: never removed.)
+fn sweep_stale(dir: &Path) {
+    let Ok(entries) = fs::read_dir(dir) else { return };
+    let me = std::process::id();
+    for entry in entries.filter_map(Result::ok) {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temporary_owner) else { continue };
+        if pid == me || may_be_writing(pid) != Some(false) {
+            continue;
+        }
+        let path = entry.path();
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => {
+                let _ = fs::remove_dir_all(&path);
+            }
+            Ok(t) if t.is_file() => {
+                let _ = fs::remove_file(&path);
+            }
+            _ => {}
+        }
+    }
+}
+
 /// A file's identity on its file system (the same file under any name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct FileId {
@@ -158,6 +218,7 @@ impl Staged {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
+        sweep_stale(path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
         let temporary = self.temporary_beside(path);
         cleanup::track(&temporary);
         // Whether the folder takes a file at all is asked before any work is
@@ -355,6 +416,7 @@ impl StagedFolder {
         if let Some(taken) = out.ancestors().find(|d| !d.as_os_str().is_empty() && d.exists() && !d.is_dir()) {
             return Err(Failure::bad_input(format!("{}: is not a folder; nothing is written into it", shown(taken))));
         }
+        sweep_stale(out);
         let mut staged = Self { path: out.join(format!(".struck-{}.part", std::process::id())), made: Vec::new() };
         let missing: Vec<PathBuf> =
             out.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf).collect();
@@ -436,5 +498,30 @@ pub fn csv_field(out: &mut impl Write, value: Option<f64>) -> io::Result<()> {
     match value {
         Some(v) => write!(out, "{v:e}"),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_struck_temporaries_name_their_process() {
+        assert_eq!(temporary_owner(".struck-1234-0.part"), Some(1234));
+        assert_eq!(temporary_owner(".struck-1234-17.part"), Some(1234));
+        assert_eq!(temporary_owner(".struck-1234.part"), Some(1234));
+        for name in
+            [".struck-1234-0.old", "struck-1234-0.part", ".struck-12a-0.part", ".struck-1234-.part", ".struck--1.part"]
+        {
+            assert_eq!(temporary_owner(name), None, "{name}");
+        }
+        // This program may be (it is itself); the one that started it (cargo) is
+        // running, and no struck; one that ended is not running.
+        assert_eq!(may_be_writing(std::process::id()), Some(true));
+        assert_eq!(may_be_writing(std::os::unix::process::parent_id()), Some(false));
+        let mut gone = std::process::Command::new("true").spawn().unwrap();
+        let pid = gone.id();
+        gone.wait().unwrap();
+        assert_eq!(may_be_writing(pid), Some(false));
     }
 }

@@ -191,7 +191,10 @@ impl Preset {
 /// JSON text as a value, refusing an object that names a key twice (which
 /// serde_json settles silently by keeping the last: a pasted line would
 /// change a setting without a word). For presets and the lab's case files.
+/// A byte-order mark before it (as some Windows editors save UTF-8) is
+/// passed over, as it is in a Scala file.
 pub fn strict_json(text: &str) -> Result<Value, serde_json::Error> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 
     struct Strict(Value);

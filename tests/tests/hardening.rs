@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-use struck_tests::{SANTOOR_CASE, midi_gen, stderr, struck};
+use struck_tests::{SANTOOR_CASE, midi_gen, stderr, stdout, struck};
 
 /// A test MIDI file.
 fn midi(name: &str) -> PathBuf {
@@ -657,4 +657,26 @@ fn temporaries_left_by_a_killed_struck_are_swept_when_a_command_next_writes_ther
     assert!(!stale_file.exists() && !stale_folder.exists(), "swept");
     assert!(in_use.exists() && set_aside.exists(), "kept");
     drop(working);
+}
+
+#[test]
+fn a_text_file_saved_with_a_byte_order_mark_is_read() {
+    // (Windows editors save UTF-8 so.)
+    let dir = tempfile::tempdir().unwrap();
+    let bom = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, [&b"\xef\xbb\xbf"[..], text.as_bytes()].concat()).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let case = bom("case.json", SANTOOR_CASE);
+    let run = struck(&["strike", &case, "--out", &text(&dir.path().join("o")), "-q"]);
+    assert!(run.status.success(), "a case: {}", stderr(&run));
+    let preset = bom("p.json", r#"{"name": "Mine", "instrument": "santoor"}"#);
+    let scale = bom("s.scl", "! s.scl\nfifths\n2\n3/2\n2/1\n");
+    let mapping = bom("m.kbm", "0\n0\n127\n60\n69\n440.0\n0\n");
+    let wav = text(&dir.path().join("x.wav"));
+    let song = text(&midi("a4.mid"));
+    let run = struck(&["render", &song, "--out", &wav, "--preset", &preset, "--scl", &scale, "--kbm", &mapping]);
+    assert!(run.status.success(), "a preset, a scale, a mapping: {}", stderr(&run));
+    assert!(stdout(&run).contains("santoor (scale \"fifths\""), "{}", stdout(&run));
 }

@@ -680,3 +680,45 @@ fn a_text_file_saved_with_a_byte_order_mark_is_read() {
     assert!(run.status.success(), "a preset, a scale, a mapping: {}", stderr(&run));
     assert!(stdout(&run).contains("santoor (scale \"fifths\""), "{}", stdout(&run));
 }
+
+#[test]
+fn every_kind_of_file_is_read_up_to_the_size_the_readme_states() {
+    // The README: MIDI files 16 MB, strike cases, presets and tuning files 1 MB.
+    let dir = tempfile::tempdir().unwrap();
+    let padded = |name: &str, text: &str, pad: &str, size: usize| {
+        let path = dir.path().join(name);
+        let mut bytes = text.as_bytes().to_vec();
+        while bytes.len() + pad.len() <= size {
+            bytes.extend_from_slice(pad.as_bytes());
+        }
+        bytes.resize(size, b' ');
+        std::fs::write(&path, bytes).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    const MB: usize = 1 << 20;
+    let song = text(&midi("a4.mid"));
+    let wav = text(&dir.path().join("x.wav"));
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", song.as_str(), "--out", wav.as_str(), "--tail-s", "0", "-q"];
+        args.extend_from_slice(extra);
+        struck(&args)
+    };
+    // At the size: read. A byte more: refused, naming the size.
+    let preset = r#"{"name": "Mine"}"#;
+    let run = render(&["--preset", &padded("p.json", preset, " ", MB)]);
+    assert!(run.status.success(), "a 1 MB preset: {}", stderr(&run));
+    refused(&render(&["--preset", &padded("p.json", preset, " ", MB + 1)]), "larger than the 1 MB");
+    let scale = "! s.scl\nequal\n12\n100.\n200.\n300.\n400.\n500.\n600.\n700.\n800.\n900.\n1000.\n1100.\n2/1\n";
+    let run = render(&["--scl", &padded("s.scl", scale, "! padding\n", MB)]);
+    assert!(run.status.success(), "a 1 MB scale: {}", stderr(&run));
+    refused(&render(&["--scl", &padded("s.scl", scale, "! padding\n", MB + 1)]), "larger than the 1 MB");
+    let out = text(&dir.path().join("o"));
+    let run = struck(&["strike", &padded("c.json", SANTOOR_CASE, " ", MB), "--out", &out, "-q"]);
+    assert!(run.status.success(), "a 1 MB case: {}", stderr(&run));
+    refused(&struck(&["strike", &padded("c.json", SANTOOR_CASE, " ", MB + 1), "--out", &out]), "larger than the 1 MB");
+    let big_song = padded("s.mid", "", " ", 16 * MB + 1);
+    refused(&struck(&["render", &big_song, "--out", &wav]), "larger than the 16 MB");
+    let at_size = padded("s.mid", "", " ", 16 * MB);
+    let said = stderr(&struck(&["render", &at_size, "--out", &wav]));
+    assert!(!said.contains("larger than"), "a 16 MB song is read (and refused for what it holds): {said}");
+}

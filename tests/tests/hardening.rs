@@ -722,3 +722,39 @@ fn every_kind_of_file_is_read_up_to_the_size_the_readme_states() {
     let said = stderr(&struck(&["render", &at_size, "--out", &wav]));
     assert!(!said.contains("larger than"), "a 16 MB song is read (and refused for what it holds): {said}");
 }
+
+#[test]
+fn an_output_that_cannot_be_written_is_refused_before_the_instrument_or_the_run() {
+    use struck_tests::midi_gen::{TrackBuilder, at_120, key, metrical, smf_bytes};
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("a folder");
+    std::fs::create_dir(&folder).unwrap();
+    let file = dir.path().join("a file");
+    std::fs::write(&file, "mine").unwrap();
+    // A song the santoor plays but in part: "1 of 2 notes are outside the
+    // santoor's keys" is said once the instrument is built. The refusal comes
+    // before it, alone.
+    let mut track = TrackBuilder::new();
+    track.tempo(0, 120.0).note(0, at_120(0.5), key("A0"), 90).note(0, at_120(0.5), key("A4"), 90);
+    let song = dir.path().join("song.mid");
+    std::fs::write(&song, smf_bytes(midly::Format::SingleTrack, metrical(), &[track])).unwrap();
+    let run = struck(&["render", &text(&song), "--out", &text(&dir.path().join("x.wav")), "--instrument", "santoor"]);
+    assert!(run.status.success() && stderr(&run).contains("outside the santoor's keys"), "{}", stderr(&run));
+    for out in [text(&folder), text(&file.join("x.wav"))] {
+        refused(&struck(&["render", &text(&song), "--out", &out, "--instrument", "santoor"]), "nothing is written");
+    }
+    // A strike whose run ends refused (the hammer rebounds faster than it
+    // came): an output that cannot be written is refused before the run.
+    let case = santoor_case(dir.path());
+    let stiff = ["--set", "exciter.stiffness=1e22"];
+    let out = text(&dir.path().join("o"));
+    let run = struck(&["strike", &text(&case), "--out", &out, stiff[0], stiff[1]]);
+    refused(&run, "exciter.stiffness: the hammer rebounds");
+    refused(
+        &struck(&["strike", &text(&case), "--out", &out, "--wav", &text(&folder), stiff[0], stiff[1]]),
+        "is a directory",
+    );
+    refused(&struck(&["strike", &text(&case), "--out", &text(&file), stiff[0], stiff[1]]), "is not a folder");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    assert!(std::fs::read_dir(&folder).unwrap().next().is_none());
+}

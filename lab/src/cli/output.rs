@@ -25,7 +25,7 @@ use crate::cleanup;
 fn temporary_owner(name: &str) -> Option<u32> {
     let middle = name.strip_prefix(".struck-")?.strip_suffix(".part")?;
     let (pid, n) = middle.split_once('-').unwrap_or((middle, "0"));
-    if !(n.bytes().all(|b| b.is_ascii_digit()) && !n.is_empty()) {
+    if n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
         return None;
     }
     pid.parse().ok()
@@ -80,6 +80,11 @@ fn sweep_stale(dir: &Path) {
     }
 }
 
+/// A mono WAV's format.
+fn mono(sample_rate_hz: f64, bits_per_sample: u16, sample_format: hound::SampleFormat) -> hound::WavSpec {
+    hound::WavSpec { channels: 1, sample_rate: sample_rate_hz.round() as u32, bits_per_sample, sample_format }
+}
+
 /// A file's identity on its file system (the same file under any name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct FileId {
@@ -100,11 +105,22 @@ fn identity(path: &Path) -> Option<FileId> {
     }
 }
 
+/// A file staged: its temporary, where it goes, and whether it was written.
+struct Staging {
+    temporary: PathBuf,
+    destination: PathBuf,
+    written: bool,
+}
+
+/// A file whose temporary is made ([`Staged::reserve`]) and waits to be written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slot(usize);
+
 /// Files written to temporary names, waiting to be put in place together.
 #[derive(Default)]
 pub struct Staged {
-    /// (temporary, destination), in the order staged.
-    files: Vec<(PathBuf, PathBuf)>,
+    /// The files, in the order staged.
+    files: Vec<Staging>,
     /// The command's inputs: how the user named them, and what they are.
     inputs: Vec<(PathBuf, FileId)>,
     /// Folders made for the outputs, outermost first.
@@ -208,11 +224,18 @@ impl Staged {
         path.with_file_name(format!(".struck-{}-{}.part", std::process::id(), self.files.len()))
     }
 
-    /// Have `write_to` write a temporary file beside `path` and stage it.
-    fn stage(&mut self, named: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+    /// Make the temporary file for `named` beside where it goes (after the
+    /// checks every destination has, the folders made), before the work
+    /// that fills it: a destination that cannot be written is refused before
+    /// any time is spent. Written later by [`Self::fill`].
+    pub fn reserve(&mut self, named: &Path) -> Result<Slot, Failure> {
         check_destination(named, &self.inputs)?;
         let path = &through_links(named)?;
-        if self.files.iter().any(|(_, d)| d == path || identity(d).is_some_and(|id| identity(path) == Some(id))) {
+        if self
+            .files
+            .iter()
+            .any(|f| f.destination == *path || identity(&f.destination).is_some_and(|id| identity(path) == Some(id)))
+        {
             return Err(Failure::bad_input(format!("{}: named for two outputs", shown(named))));
         }
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -221,27 +244,62 @@ impl Staged {
         sweep_stale(path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
         let temporary = self.temporary_beside(path);
         cleanup::track(&temporary);
-        // Whether the folder takes a file at all is asked before any work is
-        // done, and told of the path the user gave.
-        let result = fs::File::create(&temporary).and_then(|_| write_to(&temporary));
-        match result {
+        // Whether the folder takes a file at all is asked here, and told of
+        // the path the user gave.
+        if let Err(e) = fs::File::create(&temporary) {
+            cleanup::forget(&temporary);
+            return Err(write_failure("write", named, &e));
+        }
+        self.files.push(Staging { temporary, destination: path.to_path_buf(), written: false });
+        Ok(Slot(self.files.len() - 1))
+    }
+
+    /// Have `write_to` write the file reserved as `slot` (at the path it is given).
+    pub fn fill(
+        &mut self,
+        slot: Slot,
+        named: &Path,
+        write_to: impl FnOnce(&Path) -> io::Result<()>,
+    ) -> Result<(), Failure> {
+        let Some(staging) = self.files.get_mut(slot.0) else {
+            return Err(Failure::failed(format!("{}: was not reserved", shown(named))));
+        };
+        match write_to(&staging.temporary) {
             Ok(()) => {
-                self.files.push((temporary, path.to_path_buf()));
+                staging.written = true;
                 Ok(())
             }
             Err(e) => {
                 // (A write past `ulimit -f` fails with an error the writer may
                 // have wrapped; the file's length tells.)
-                let limit = room::at_file_size_limit(&temporary).or_else(|| room::file_size_error(&e.to_string()));
-                let failure = match limit {
+                let limit =
+                    room::at_file_size_limit(&staging.temporary).or_else(|| room::file_size_error(&e.to_string()));
+                Err(match limit {
                     Some(limit) => room::file_size_failure(named, limit),
                     None => write_failure("write", named, &e),
-                };
-                let _ = fs::remove_file(&temporary);
-                cleanup::forget(&temporary);
-                Err(failure)
+                })
             }
         }
+    }
+
+    /// [`Self::fill`] through a buffered writer.
+    pub fn fill_with(
+        &mut self,
+        slot: Slot,
+        named: &Path,
+        fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
+    ) -> Result<(), Failure> {
+        self.fill(slot, named, |temporary| {
+            let mut writer = BufWriter::new(fs::File::create(temporary)?);
+            fill(&mut writer)?;
+            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
+        })
+    }
+
+    /// Have `write_to` write a temporary file beside `path` and stage it.
+    fn stage(&mut self, named: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+        let slot = self.reserve(named)?;
+        self.fill(slot, named, write_to)
     }
 
     /// Stage `temporary`, a file already written beside `path` (in a
@@ -252,7 +310,7 @@ impl Staged {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
-        self.files.push((temporary.to_path_buf(), path.to_path_buf()));
+        self.files.push(Staging { temporary: temporary.to_path_buf(), destination: path.to_path_buf(), written: true });
         Ok(())
     }
 
@@ -268,37 +326,34 @@ impl Staged {
         path: &Path,
         fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
     ) -> Result<(), Failure> {
-        self.stage(path, |temporary| {
-            let mut writer = BufWriter::new(fs::File::create(temporary)?);
-            fill(&mut writer)?;
-            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
-        })
+        let slot = self.reserve(path)?;
+        self.fill_with(slot, path, fill)
     }
 
-    /// Write a mono 32-bit float WAV.
-    pub fn write_wav(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        self.write_mono(path, sample_rate_hz, 32, hound::SampleFormat::Float, samples, |w, s| w.write_sample(s))
+    /// Write a mono 32-bit float WAV into the file reserved as `slot`.
+    pub fn fill_wav(&mut self, slot: Slot, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
+        let spec = mono(sample_rate_hz, 32, hound::SampleFormat::Float);
+        self.write_mono(slot, path, spec, samples, |w, s| w.write_sample(s))
     }
 
     /// Write a mono 16-bit PCM WAV (what every browser's player takes), clipping at full scale.
     pub fn write_wav16(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        self.write_mono(path, sample_rate_hz, 16, hound::SampleFormat::Int, samples, |w, s| {
+        let slot = self.reserve(path)?;
+        let spec = mono(sample_rate_hz, 16, hound::SampleFormat::Int);
+        self.write_mono(slot, path, spec, samples, |w, s| {
             w.write_sample((s.clamp(-1.0, 1.0) * i16::MAX as f32).round() as i16)
         })
     }
 
     fn write_mono(
         &mut self,
+        slot: Slot,
         path: &Path,
-        sample_rate_hz: f64,
-        bits_per_sample: u16,
-        sample_format: hound::SampleFormat,
+        spec: hound::WavSpec,
         samples: &[f32],
         put: impl Fn(&mut hound::WavWriter<BufWriter<fs::File>>, f32) -> hound::Result<()>,
     ) -> Result<(), Failure> {
-        let spec =
-            hound::WavSpec { channels: 1, sample_rate: sample_rate_hz.round() as u32, bits_per_sample, sample_format };
-        self.stage(path, |temporary| {
+        self.fill(slot, path, |temporary| {
             let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
             for &s in samples {
                 put(&mut w, s).map_err(io::Error::other)?;
@@ -321,7 +376,11 @@ impl Staged {
     }
 
     fn commit_held(&mut self, held: &mut cleanup::Held) -> Result<(), Failure> {
-        let files = std::mem::take(&mut self.files);
+        if let Some(f) = self.files.iter().find(|f| !f.written) {
+            return Err(Failure::failed(format!("{}: reserved but never written", shown(&f.destination))));
+        }
+        let files: Vec<(PathBuf, PathBuf)> =
+            std::mem::take(&mut self.files).into_iter().map(|f| (f.temporary, f.destination)).collect();
         // Set aside what the files replace.
         let mut aside: Vec<(PathBuf, PathBuf)> = Vec::new();
         let mut placed: Vec<&Path> = Vec::new();
@@ -384,9 +443,9 @@ impl Drop for Staged {
     /// Files not committed (an error came first) are removed, and the folders
     /// made for them if they are empty.
     fn drop(&mut self) {
-        for (temporary, _) in &self.files {
-            let _ = fs::remove_file(temporary);
-            cleanup::forget(temporary);
+        for f in &self.files {
+            let _ = fs::remove_file(&f.temporary);
+            cleanup::forget(&f.temporary);
         }
         if !self.committed {
             for dir in self.made.iter().rev() {

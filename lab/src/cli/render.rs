@@ -167,14 +167,6 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             total as f64 / fs_hz
         )));
     }
-    super::room::check_file_size(&args.out, WAV_HEADER_BYTES + total * 8)?;
-    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES) {
-        return Err(Failure::bad_input(format!(
-            "the {kind} would hold {} in memory while it plays; {}; nothing was written",
-            super::room::size_text_rounded(RENDER_PEAK_BYTES),
-            room.told
-        )));
-    }
 
     let tuned = tuning != TuningSettings::default();
     let mut controls = preset.controls;
@@ -193,6 +185,23 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
     let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
+    // The WAV's temporary is made beside it now: an --out that cannot be
+    // written is refused before the instrument is built (a second or more).
+    let inputs: Vec<&Path> =
+        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
+    let mut staged = Staged::reading(&inputs);
+    let slot = staged.reserve(&args.out)?;
+    super::room::check_file_size(&args.out, WAV_HEADER_BYTES + total * 8)?;
+    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES) {
+        return Err(Failure::bad_input(format!(
+            "the {kind} would hold {} in memory while it plays; {}; nothing was written",
+            super::room::size_text_rounded(RENDER_PEAK_BYTES),
+            room.told
+        )));
+    }
     // Ctrl-C (or SIGTERM) stops after the instrument is built or between
     // blocks, so nothing (or only the partial file, then removed) is written.
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
@@ -235,13 +244,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     };
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
-    let inputs: Vec<&Path> =
-        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
-            .into_iter()
-            .flatten()
-            .collect();
-    let mut staged = Staged::reading(&inputs);
-    let written = staged.write(&args.out, |w| {
+    let written = staged.fill_with(slot, &args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
         let mut done = 0u64;
         render(&mut synth, &song.events, total, block_size, |left, right| {

@@ -94,6 +94,14 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             struck_engine::readable(case.sample_rate_hz)
         )));
     }
+    // The outputs' temporaries are made first: an --out or --wav that cannot
+    // be written is refused before the run.
+    let mut staged = Staged::reading(&[args.case.as_path()]);
+    let metrics_path = args.out.join("metrics.json");
+    let trace_path = args.out.join("trace.csv");
+    let metrics_slot = staged.reserve(&metrics_path)?;
+    let trace_slot = staged.reserve(&trace_path)?;
+    let wav_slot = args.wav.as_ref().map(|wav| staged.reserve(wav)).transpose()?;
     // Room for the trace in memory and the files on disk, before starting.
     let rows = case.sample_count() as u64;
     let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
@@ -108,9 +116,6 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
     check_finite(&result)?;
     check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
 
-    let mut staged = Staged::reading(&[args.case.as_path()]);
-    let metrics_path = args.out.join("metrics.json");
-    let trace_path = args.out.join("trace.csv");
     let metrics = serde_json::to_value(&result.metrics).expect("metrics serialise");
     if let Some(field) = null_field(&metrics, "") {
         return Err(Failure::bad_input(format!(
@@ -118,16 +123,16 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         )));
     }
     let metrics = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
-    staged.write(&metrics_path, |w| writeln!(w, "{metrics}"))?;
+    staged.fill_with(metrics_slot, &metrics_path, |w| writeln!(w, "{metrics}"))?;
     stop_if_interrupted()?;
     staged
-        .write(&trace_path, |w| {
+        .fill_with(trace_slot, &trace_path, |w| {
             write_trace(w, &result)?;
             stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
         })
         .map_err(|e| if crate::cleanup::interrupted() { Failure::interrupted() } else { e })?;
     let mut wav_note = String::new();
-    if let Some(wav) = &args.wav {
+    if let (Some(wav), Some(slot)) = (&args.wav, wav_slot) {
         let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let gain = match args.wav_gain_db {
             Some(db) => 10f64.powf(db / 20.0),
@@ -146,7 +151,7 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
                 peak
             )));
         }
-        staged.write_wav(wav, case.sample_rate_hz, &samples)?;
+        staged.fill_wav(slot, wav, case.sample_rate_hz, &samples)?;
         stop_if_interrupted()?;
         wav_note = format!(", {} (gain {:+.1} dB re 1 N)", super::shown(wav), 20.0 * gain.log10());
     }

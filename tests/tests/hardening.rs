@@ -758,3 +758,16 @@ fn an_output_that_cannot_be_written_is_refused_before_the_instrument_or_the_run(
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
     assert!(std::fs::read_dir(&folder).unwrap().next().is_none());
 }
+
+#[test]
+fn a_scales_description_is_printed_with_its_escapes_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let scale = dir.path().join("s.scl");
+    let degrees = "100.\n200.\n300.\n400.\n500.\n600.\n700.\n800.\n900.\n1000.\n1100.\n2/1\n";
+    std::fs::write(&scale, format!("! s.scl\nevil \u{1b}[31mred\n12\n{degrees}")).unwrap();
+    let wav = text(&dir.path().join("x.wav"));
+    let run = struck(&["render", &text(&midi("a4.mid")), "--out", &wav, "--scl", &text(&scale), "--tail-s", "0"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let said = stdout(&run);
+    assert!(!said.contains('\u{1b}') && said.contains("scale \"evil \\u{1b}[31mred\""), "{said:?}");
+}

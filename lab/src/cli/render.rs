@@ -295,7 +295,12 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         } else {
             "silent".to_string()
         };
-        let tuning_note = if tuned { format!(" ({})", settings.tuning.describe()) } else { String::new() };
+        // (A scale's description is the file's text: its control characters are shown, not acted on.)
+        let tuning_note = if tuned {
+            format!(" ({})", super::failure::printable(&settings.tuning.describe()))
+        } else {
+            String::new()
+        };
         console::out(format!(
             "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
              ({:.1}x real time), {peak_note}",

@@ -598,6 +598,14 @@ fn a_memory_limit_too_small_for_the_work_is_named_in_one_line() {
     refused(&strike("--data=2000000000"), "the data limit (ulimit -d, 1.9 GB) leaves");
     let said = stderr(&strike("--as=2000000000"));
     assert!(said.contains("(92160000 samples) would hold 7.6 GB in memory"), "{said}");
+    // A strike chart holds every run it draws.
+    let charts = out.to_str().unwrap();
+    let mut args = vec!["chart", "strike", case.to_str().unwrap(), case.to_str().unwrap(), "--out", charts];
+    args.extend(big);
+    refused(
+        &limited(&["--as=2000000000"], &args),
+        "2 strikes on one chart would hold 15.1 GB in memory; the memory limit",
+    );
     // A render holds little, but not nothing.
     let wav = dir.path().join("x.wav");
     refused(&limited(&["--as=60000000"], &["render", &text(&midi("a4.mid")), "--out", &text(&wav)]), "ulimit -v");

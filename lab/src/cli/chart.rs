@@ -244,6 +244,10 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                     cases.push(c);
                 }
             }
+            // Every run is held until the charts are drawn.
+            let memory = cases.iter().map(strike::run::peak_bytes).sum();
+            let what = format!("{} on one chart", super::render::count(cases.len(), "strike"));
+            super::room::check(&what, memory, 0, final_out)?;
             figures::strikes(&cases, out, s.per_speed).map_err(failed)?
         }
         Chart::Clavichord => figures::clavichord(out).map_err(failed)?,

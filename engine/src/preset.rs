@@ -34,8 +34,10 @@ use crate::tuning::{FieldError, TuningSettings};
 
 /// Longest preset name, characters.
 pub const MAX_NAME_CHARS: usize = 100;
-/// A preset file is read only up to this size, bytes (a Scala scale inside it included).
-pub const MAX_FILE_BYTES: u64 = 4 << 20;
+/// A preset file is read only up to this size, bytes, as for a case or a
+/// tuning file. The largest preset Struck writes, a scale of 4096 pitches
+/// mapped over 4096 keys inside it, takes 188 kB (tested).
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
 
 /// A named instrument, voicing, controls and tuning.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -191,7 +193,10 @@ impl Preset {
 /// JSON text as a value, refusing an object that names a key twice (which
 /// serde_json settles silently by keeping the last: a pasted line would
 /// change a setting without a word). For presets and the lab's case files.
+/// A byte-order mark before it (as some Windows editors save UTF-8) is
+/// passed over, as it is in a Scala file.
 pub fn strict_json(text: &str) -> Result<Value, serde_json::Error> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 
     struct Strict(Value);
@@ -440,6 +445,70 @@ mod tests {
     use super::*;
     use crate::synth::{Event, Instrument, Synth, TimedEvent};
     use crate::tuning::Temperament;
+
+    /// The largest preset there can be: the longest name, a scale of the
+    /// most pitches, each as long as a number gets, with the longest
+    /// description of escaped characters and a mapping of the most keys.
+    fn largest() -> Preset {
+        use crate::tuning::{KeyboardMapping, MAX_DESCRIPTION_CHARS, MAX_MAP_SIZE, MAX_SCALE_DEGREES, ScalaScale};
+        // (Each written with 17 digits: -119999.33333333333.)
+        let third = 1.0 / 3.0;
+        let mut degrees: Vec<f64> = (1..MAX_SCALE_DEGREES).map(|i| -119_999.0 - third + i as f64 * 1e-9).collect();
+        degrees.push(119_999.0 + third);
+        let scale = ScalaScale {
+            description: "\"".repeat(MAX_DESCRIPTION_CHARS),
+            degrees_cents: degrees,
+            keyboard_mapping: Some(KeyboardMapping {
+                map_size: MAX_MAP_SIZE,
+                first_key: 0,
+                last_key: 127,
+                middle_key: 60,
+                reference_key: 69,
+                reference_hz: 440.0 + third,
+                octave_degree: MAX_SCALE_DEGREES,
+                map: (0..MAX_MAP_SIZE).map(|i| Some(MAX_SCALE_DEGREES - 1 - i % 7)).collect(),
+            }),
+        };
+        Preset {
+            name: "\u{1F3B9}".repeat(MAX_NAME_CHARS),
+            tuning: TuningSettings { temperament: Temperament::Scala, scale: Some(scale), ..TuningSettings::default() },
+            ..Preset::default()
+        }
+    }
+
+    #[test]
+    fn the_largest_preset_fits_the_file_size_a_preset_is_read_up_to() {
+        let preset = largest();
+        preset.validate().unwrap();
+        let json = preset.to_json();
+        assert!(json.len() < 200 << 10, "{} bytes", json.len());
+        assert!(json.len() as u64 <= MAX_FILE_BYTES);
+        let scratch = Scratch::new("largest");
+        let path = scratch.0.join("largest.json");
+        fs::write(&path, &json).unwrap();
+        assert_eq!(Preset::load(&path).unwrap(), preset);
+        // And the cap is the one a file meets.
+        let mut padded = json.into_bytes();
+        padded.resize(MAX_FILE_BYTES as usize, b' ');
+        fs::write(&path, &padded).unwrap();
+        assert!(Preset::load(&path).is_ok());
+        padded.push(b' ');
+        fs::write(&path, &padded).unwrap();
+        let e = Preset::load(&path).unwrap_err().to_string();
+        assert!(e.contains("larger than the 1 MB"), "{e}");
+    }
+
+    #[test]
+    fn a_scales_description_is_kept_to_its_length() {
+        use crate::tuning::{MAX_DESCRIPTION_CHARS, ScalaScale};
+        let long = format!("{}\n1\n2/1\n", "a".repeat(5000));
+        let scale = ScalaScale::parse(&long).unwrap();
+        assert_eq!(scale.description.chars().count(), MAX_DESCRIPTION_CHARS);
+        let mut preset = largest();
+        preset.tuning.scale.as_mut().unwrap().description.push('x');
+        let e = preset.validate().unwrap_err();
+        assert_eq!(e.field, "tuning.scale.description", "{e}");
+    }
 
     /// A scratch directory of its own for each test.
     struct Scratch(PathBuf);

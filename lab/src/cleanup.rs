@@ -6,7 +6,10 @@
 //! stops and cleans up on its own. One that does not is stopped a second
 //! later: whatever is listed is removed and the process exits with status 130.
 //! Putting a set of files in place holds the list ([`holding`]), so a signal
-//! never lands between two of their renames.
+//! never lands between two of their renames, and is refused once the flag is
+//! up: whatever stood at the outputs stays as it was. A signal that comes
+//! after the outputs were put in place ([`Held::placed`]) finds the work
+//! done: the process ends with status 0.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -20,6 +23,9 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 pub const INTERRUPTED_MESSAGE: &str = "interrupted; nothing was written";
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Whether a command's outputs were put in place (outside its scratch folders).
+static DONE: AtomicBool = AtomicBool::new(false);
 
 pub struct Listed {
     files: Vec<PathBuf>,
@@ -78,6 +84,14 @@ impl Held<'_> {
     pub fn forget(&mut self, path: &Path) {
         forget_from(&mut self.0, path);
     }
+
+    /// A file was put in place at `path`: the command's work is done unless
+    /// `path` lies inside a scratch folder (a file drawn to be moved out later).
+    pub fn placed(&mut self, path: &Path) {
+        if !self.0.trees.iter().any(|tree| path.starts_with(tree)) {
+            DONE.store(true, Ordering::Relaxed);
+        }
+    }
 }
 
 /// Run `work` with the lists held: a signal waits until it is done.
@@ -91,6 +105,10 @@ pub fn install(command: &'static str) {
         INTERRUPTED.store(true, Ordering::Relaxed);
         std::thread::sleep(Duration::from_secs(1));
         let l = listed();
+        if DONE.load(Ordering::Relaxed) {
+            // The outputs are in place; only the report was left to print.
+            std::process::exit(0);
+        }
         for file in &l.files {
             let _ = std::fs::remove_file(file);
         }
@@ -100,7 +118,7 @@ pub fn install(command: &'static str) {
         for dir in l.dirs.iter().rev() {
             let _ = std::fs::remove_dir(dir);
         }
-        eprintln!("{command}: {INTERRUPTED_MESSAGE}");
+        crate::console::err(format!("{command}: {INTERRUPTED_MESSAGE}"));
         std::process::exit(i32::from(EXIT_INTERRUPTED));
     });
 }

@@ -18,9 +18,14 @@
 //! Nothing here runs on an audio thread; it may allocate, spawn threads (rayon)
 //! and take its time.
 
+// Printing goes through `console`: println! panics when stdout is a closed
+// pipe or a full disk.
+#![warn(clippy::print_stdout, clippy::print_stderr)]
+
 pub mod analysis;
 pub mod cleanup;
 pub mod cli;
+pub mod console;
 pub mod demo_page;
 pub mod figures;
 pub mod midi_file;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-use struck_tests::{SANTOOR_CASE, midi_gen, stderr, struck};
+use struck_tests::{SANTOOR_CASE, midi_gen, stderr, stdout, struck};
 
 /// A test MIDI file.
 fn midi(name: &str) -> PathBuf {
@@ -330,4 +330,489 @@ fn a_cases_name_is_printed_with_its_escapes_shown() {
     assert!(out.status.success(), "{}", stderr(&out));
     let said = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(!said.contains('\u{1b}') && said.contains("evil\\u{1b}[31m\\nname"), "{said:?}");
+}
+
+/// Where a test sends one of the program's streams.
+#[derive(Clone, Copy, Debug)]
+enum Stream {
+    /// stdout to /dev/full (every write fails: no space left).
+    FullStdout,
+    /// stdout to a pipe whose reader has gone (every write fails: broken pipe).
+    ClosedStdout,
+    /// stderr to /dev/full.
+    FullStderr,
+}
+
+/// Run `struck args` with `stream` broken; the exit code and what stderr
+/// said (nothing when stderr is the broken one).
+fn run_broken(stream: Stream, args: &[&str]) -> (Option<i32>, String) {
+    use std::process::{Command, Stdio};
+    let full = || Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap());
+    let mut command = Command::new(struck_tests::struck_binary());
+    command.args(args).stdin(Stdio::null());
+    match stream {
+        Stream::FullStdout => command.stdout(full()).stderr(Stdio::piped()),
+        Stream::ClosedStdout => command.stdout(Stdio::piped()).stderr(Stdio::piped()),
+        Stream::FullStderr => command.stdout(Stdio::null()).stderr(full()),
+    };
+    let mut child = command.spawn().unwrap();
+    // The reader goes before the program writes anything.
+    drop(child.stdout.take());
+    let done = child.wait_with_output().unwrap();
+    (done.status.code(), stderr(&done))
+}
+
+/// The exit status a command whose work succeeded has with `stream` broken,
+/// and what it says: a report lost to a full stdout is status 1 and one line;
+/// a reader that went away, or a stderr that cannot be written, changes nothing.
+fn assert_finished(stream: Stream, (code, said): &(Option<i32>, String), what: &str) {
+    assert!(!said.contains("panicked"), "{what}, {stream:?}: {said}");
+    match stream {
+        Stream::FullStdout => {
+            assert_eq!(*code, Some(1), "{what}, {stream:?}: {said}");
+            assert_eq!(said.lines().count(), 1, "{what}: one line: {said:?}");
+            assert!(said.contains("cannot print") && said.contains("No space left"), "{what}: {said}");
+        }
+        Stream::ClosedStdout | Stream::FullStderr => {
+            assert_eq!(*code, Some(0), "{what}, {stream:?}: {said}");
+            assert!(said.is_empty(), "{what}, {stream:?}: {said}");
+        }
+    }
+}
+
+const BROKEN: [Stream; 3] = [Stream::FullStdout, Stream::ClosedStdout, Stream::FullStderr];
+
+#[test]
+fn a_full_or_closed_stdout_or_a_full_stderr_never_stops_a_render_or_spoils_its_wav() {
+    let dir = tempfile::tempdir().unwrap();
+    let song = text(&midi("a4.mid"));
+    let reference = dir.path().join("reference.wav");
+    let run = struck(&["render", &song, "--out", &text(&reference), "--tail-s", "1"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let expected = std::fs::read(&reference).unwrap();
+    for stream in BROKEN {
+        let wav = dir.path().join(format!("{stream:?}.wav"));
+        let done = run_broken(stream, &["render", &song, "--out", &text(&wav), "--tail-s", "1"]);
+        assert_finished(stream, &done, "render");
+        assert!(std::fs::read(&wav).unwrap() == expected, "{stream:?}: the WAV is whole");
+    }
+    let left = std::fs::read_dir(dir.path()).unwrap().count();
+    assert_eq!(left, 4, "the WAVs and nothing else");
+}
+
+#[test]
+fn a_full_or_closed_stdout_never_stops_strike_chart_animate_or_help() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    for stream in BROKEN {
+        let name = format!("{stream:?}");
+        let out = dir.path().join(&name);
+        let done =
+            run_broken(stream, &["strike", &text(&case), "--out", &text(&out), "--wav", &text(&out.join("b.wav"))]);
+        assert_finished(stream, &done, "strike");
+        let trace = std::fs::read_to_string(out.join("trace.csv")).unwrap();
+        assert_eq!(trace.lines().count(), 4801, "{name}: every row of the trace");
+        assert!(std::fs::read_to_string(out.join("metrics.json")).unwrap().trim_end().ends_with('}'));
+        assert!(std::fs::read(out.join("b.wav")).unwrap().starts_with(b"RIFF"));
+
+        let gif = out.join("a.gif");
+        assert_finished(
+            stream,
+            &run_broken(stream, &["animate", &text(&case), "--out", &text(&gif), "--frames", "4"]),
+            "animate",
+        );
+        assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF89a"), "{name}");
+
+        let charts = out.join("charts");
+        assert_finished(stream, &run_broken(stream, &["chart", "stringing", "--out", &text(&charts)]), "chart");
+        let names: Vec<String> = std::fs::read_dir(&charts)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(names.iter().any(|n| n.ends_with(".png")) && !names.iter().any(|n| n.starts_with('.')), "{names:?}");
+        let hidden = std::fs::read_dir(&out)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'));
+        assert_eq!(hidden.count(), 0, "{name}: no temporary left");
+    }
+    // What was asked for is on stdout: a full one is status 1 and one line.
+    for args in [&["--help"][..], &["--version"], &["render", "--help"], &["help", "strike"]] {
+        let (code, said) = run_broken(Stream::FullStdout, args);
+        assert_eq!(code, Some(1), "{args:?}: {said}");
+        assert_eq!(said.lines().count(), 1, "{args:?}: {said:?}");
+        assert!(said.contains("cannot print the help: No space left"), "{args:?}: {said}");
+        for stream in [Stream::ClosedStdout, Stream::FullStderr] {
+            let (code, said) = run_broken(stream, args);
+            assert_eq!(code, Some(0), "{args:?}, {stream:?}: {said}");
+            assert!(said.is_empty(), "{args:?}, {stream:?}: {said}");
+        }
+    }
+    // A refusal with nowhere to say it keeps its status.
+    for args in [&["render", "missing.mid", "--out", "x.wav"][..], &["bench", "--seconds", "0"], &["no-such-command"]] {
+        let (code, _) = run_broken(Stream::FullStderr, args);
+        assert_eq!(code, Some(2), "{args:?}");
+    }
+}
+
+#[test]
+fn a_demo_whose_reader_went_away_still_writes_everything() {
+    // The demo prints its first line before the work, and more as it goes.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let done = run_broken(Stream::ClosedStdout, &["demo", "--quick", "--out", &text(&out)]);
+    assert_finished(Stream::ClosedStdout, &done, "demo");
+    assert!(std::fs::read_to_string(out.join("index.html")).unwrap().contains("</html>"));
+    let hidden =
+        std::fs::read_dir(&out).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.'));
+    assert_eq!(hidden.count(), 0, "no temporary left");
+}
+
+/// Start `struck args`, send `signal` after `delay_ms`, and wait: the exit
+/// status as a shell reports it (130 for SIGINT, 143 for SIGTERM, whether the
+/// program stopped itself or the signal did, before the program could catch it).
+fn signalled(args: &[&str], signal: &str, delay_ms: u64) -> (i32, String) {
+    use std::os::unix::process::ExitStatusExt;
+    let child = std::process::Command::new(struck_tests::struck_binary())
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(delay_ms));
+    let sent = std::process::Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status();
+    assert!(sent.unwrap().success(), "{args:?} still ran at {delay_ms} ms");
+    let done = child.wait_with_output().unwrap();
+    let code = done.status.code().unwrap_or_else(|| 128 + done.status.signal().unwrap());
+    (code, stderr(&done))
+}
+
+/// Every file under `dir` (hidden ones too) with its bytes.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            files.push((path.clone(), Vec::new()));
+            files.extend(snapshot(&path));
+        } else {
+            files.push((path.clone(), std::fs::read(&path).unwrap()));
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn a_stop_signal_soon_after_the_start_leaves_every_existing_output_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let song = text(&midi("a4.mid"));
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // What the commands below would replace, and files they leave alone.
+    for name in ["x.wav", "x.gif", "metrics.json", "trace.csv", "index.html", "stringing-mass.png", "mine.txt"] {
+        std::fs::write(out.join(name), format!("the user's {name}")).unwrap();
+    }
+    let before = snapshot(dir.path());
+    let (gif, wav, folder) = (text(&out.join("x.gif")), text(&out.join("x.wav")), text(&out));
+    let commands: [(&[&str], &[u64]); 5] = [
+        // A big film (about two seconds' work), a long render, a long strike.
+        (
+            &["animate", &text(&case), "--out", &gif, "--frames", "1000", "--set", "sample_rate_hz=1536000"],
+            &[20, 50, 100, 300],
+        ),
+        (&["render", &song, "--out", &wav, "--tail-s", "600"], &[20, 50, 100, 300]),
+        (
+            &["strike", &text(&case), "--out", &folder, "--set", "duration_s=60", "--set", "sample_rate_hz=96000"],
+            &[50, 300],
+        ),
+        (&["chart", "hammer", "--grid", "200", "--out", &folder], &[50, 300]),
+        (&["demo", "--quick", "--out", &folder], &[50, 300]),
+    ];
+    for (args, delays) in commands {
+        for (i, &delay) in delays.iter().enumerate() {
+            let (signal, status) = if i % 2 == 0 { ("INT", 130) } else { ("TERM", 143) };
+            let (code, said) = signalled(args, signal, delay);
+            // (Stopped by the program, 130; by the signal itself, 128 + its number.)
+            assert!(code == 130 || code == status, "{} at {delay} ms, SIG{signal}: {code} {said}", args[0]);
+            assert!(!said.contains("panicked"), "{said}");
+            assert!(snapshot(dir.path()) == before, "{} at {delay} ms, SIG{signal}: every file as it was", args[0]);
+        }
+    }
+}
+
+/// Run `struck args` under `prlimit` limits (e.g. "--fsize=102400"), in `dir`.
+fn limited(limits: &[&str], args: &[&str]) -> Output {
+    std::process::Command::new("prlimit")
+        .args(limits)
+        .arg(struck_tests::struck_binary())
+        .args(args)
+        .output()
+        .expect("run prlimit (util-linux)")
+}
+
+#[test]
+fn a_file_size_limit_is_named_in_one_line_and_nothing_is_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    for name in ["x.wav", "metrics.json", "trace.csv", "x.gif", "stringing-piano-tension.png"] {
+        std::fs::write(out.join(name), format!("the user's {name}")).unwrap();
+    }
+    let before = snapshot(dir.path());
+    let limit = "--fsize=102400";
+    let said = "the file-size limit (ulimit -f, 102400 bytes)";
+    // Known before the work: a render's WAV, a strike's WAV.
+    let song = text(&midi("a4.mid"));
+    refused(&limited(&[limit], &["render", &song, "--out", &text(&out.join("x.wav"))]), said);
+    let wav = text(&out.join("x.wav"));
+    refused(
+        &limited(&[limit], &["strike", &text(&case), "--out", &text(&out), "--set", "duration_s=1", "--wav", &wav]),
+        said,
+    );
+    // Found while writing: a strike's trace (the signal would have killed it), a GIF, a chart's PNG.
+    refused(
+        &limited(&[limit], &["strike", &text(&case), "--out", &text(&out)]),
+        &format!("trace.csv: {said} is reached"),
+    );
+    let gif = text(&out.join("x.gif"));
+    refused(&limited(&["--fsize=20480"], &["animate", &text(&case), "--out", &gif]), "x.gif: the file-size limit");
+    refused(&limited(&["--fsize=40960"], &["chart", "stringing", "--out", &text(&out)]), ".png: the file-size limit");
+    assert!(snapshot(dir.path()) == before, "every file as it was, no temporary left");
+}
+
+#[test]
+fn a_memory_limit_too_small_for_the_work_is_named_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = santoor_case(dir.path());
+    let out = dir.path().join("out");
+    // The documented limits: 60 s at 1.536 MHz holds about 8 GB.
+    let big = ["--set", "duration_s=60", "--set", "sample_rate_hz=1536000"];
+    let strike = |limit: &str| {
+        let mut args = vec!["strike", case.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend(big);
+        limited(&[limit], &args)
+    };
+    refused(&strike("--as=2000000000"), "the memory limit (ulimit -v, 1.9 GB) leaves");
+    refused(&strike("--data=2000000000"), "the data limit (ulimit -d, 1.9 GB) leaves");
+    let said = stderr(&strike("--as=2000000000"));
+    assert!(said.contains("(92160000 samples) would hold 7.6 GB in memory"), "{said}");
+    // A strike chart holds every run it draws.
+    let charts = out.to_str().unwrap();
+    let mut args = vec!["chart", "strike", case.to_str().unwrap(), case.to_str().unwrap(), "--out", charts];
+    args.extend(big);
+    refused(
+        &limited(&["--as=2000000000"], &args),
+        "2 strikes on one chart would hold 15.1 GB in memory; the memory limit",
+    );
+    // A render holds little, but not nothing.
+    let wav = dir.path().join("x.wav");
+    refused(&limited(&["--as=60000000"], &["render", &text(&midi("a4.mid")), "--out", &text(&wav)]), "ulimit -v");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, ["case.json"], "nothing written");
+}
+
+#[test]
+fn temporaries_left_by_a_killed_struck_are_swept_when_a_command_next_writes_there() {
+    /// A child killed when the test ends, however it ends.
+    struct Running(std::process::Child);
+    impl Drop for Running {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    // A process that has ended, and a struck still at work.
+    let mut gone = std::process::Command::new("true").spawn().unwrap();
+    let dead = gone.id();
+    gone.wait().unwrap();
+    let song = text(&midi("a4.mid"));
+    let elsewhere = text(&dir.path().join("long.wav"));
+    let working = Running(
+        std::process::Command::new(struck_tests::struck_binary())
+            .args(["render", &song, "--out", &elsewhere, "--tail-s", "600", "-q"])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let live = working.0.id();
+    let stale_file = out.join(format!(".struck-{dead}-0.part"));
+    let stale_folder = out.join(format!(".struck-{dead}.part"));
+    let set_aside = out.join(format!(".struck-{dead}-0.old"));
+    let in_use = out.join(format!(".struck-{live}-3.part"));
+    let stale = || {
+        std::fs::write(&stale_file, vec![0u8; 1 << 16]).unwrap();
+        std::fs::create_dir(&stale_folder).unwrap();
+        std::fs::write(stale_folder.join("half.png"), "half").unwrap();
+    };
+    stale();
+    std::fs::write(&set_aside, "what stood at an output").unwrap();
+    std::fs::write(&in_use, "being written").unwrap();
+
+    let run = struck(&["render", &song, "--out", &text(&out.join("x.wav")), "--tail-s", "0", "-q"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stale_file.exists() && !stale_folder.exists(), "a dead process's temporaries are swept");
+    assert!(set_aside.exists(), "what was set aside is the user's, never swept");
+    assert!(in_use.exists(), "a working struck's temporary is kept");
+    // A chart (a folder of files) sweeps its folder too.
+    stale();
+    let run = struck(&["chart", "stringing", "--out", &text(&out)]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stale_file.exists() && !stale_folder.exists(), "swept");
+    assert!(in_use.exists() && set_aside.exists(), "kept");
+    drop(working);
+}
+
+#[test]
+fn a_text_file_saved_with_a_byte_order_mark_is_read() {
+    // (Windows editors save UTF-8 so.)
+    let dir = tempfile::tempdir().unwrap();
+    let bom = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, [&b"\xef\xbb\xbf"[..], text.as_bytes()].concat()).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let case = bom("case.json", SANTOOR_CASE);
+    let run = struck(&["strike", &case, "--out", &text(&dir.path().join("o")), "-q"]);
+    assert!(run.status.success(), "a case: {}", stderr(&run));
+    let preset = bom("p.json", r#"{"name": "Mine", "instrument": "santoor"}"#);
+    let scale = bom("s.scl", "! s.scl\nfifths\n2\n3/2\n2/1\n");
+    let mapping = bom("m.kbm", "0\n0\n127\n60\n69\n440.0\n0\n");
+    let wav = text(&dir.path().join("x.wav"));
+    let song = text(&midi("a4.mid"));
+    let run = struck(&["render", &song, "--out", &wav, "--preset", &preset, "--scl", &scale, "--kbm", &mapping]);
+    assert!(run.status.success(), "a preset, a scale, a mapping: {}", stderr(&run));
+    assert!(stdout(&run).contains("santoor (scale \"fifths\""), "{}", stdout(&run));
+}
+
+#[test]
+fn every_kind_of_file_is_read_up_to_the_size_the_readme_states() {
+    // The README: MIDI files 16 MB, strike cases, presets and tuning files 1 MB.
+    let dir = tempfile::tempdir().unwrap();
+    let padded = |name: &str, text: &str, pad: &str, size: usize| {
+        let path = dir.path().join(name);
+        let mut bytes = text.as_bytes().to_vec();
+        while bytes.len() + pad.len() <= size {
+            bytes.extend_from_slice(pad.as_bytes());
+        }
+        bytes.resize(size, b' ');
+        std::fs::write(&path, bytes).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    const MB: usize = 1 << 20;
+    let song = text(&midi("a4.mid"));
+    let wav = text(&dir.path().join("x.wav"));
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", song.as_str(), "--out", wav.as_str(), "--tail-s", "0", "-q"];
+        args.extend_from_slice(extra);
+        struck(&args)
+    };
+    // At the size: read. A byte more: refused, naming the size.
+    let preset = r#"{"name": "Mine"}"#;
+    let run = render(&["--preset", &padded("p.json", preset, " ", MB)]);
+    assert!(run.status.success(), "a 1 MB preset: {}", stderr(&run));
+    refused(&render(&["--preset", &padded("p.json", preset, " ", MB + 1)]), "larger than the 1 MB");
+    let scale = "! s.scl\nequal\n12\n100.\n200.\n300.\n400.\n500.\n600.\n700.\n800.\n900.\n1000.\n1100.\n2/1\n";
+    let run = render(&["--scl", &padded("s.scl", scale, "! padding\n", MB)]);
+    assert!(run.status.success(), "a 1 MB scale: {}", stderr(&run));
+    refused(&render(&["--scl", &padded("s.scl", scale, "! padding\n", MB + 1)]), "larger than the 1 MB");
+    let out = text(&dir.path().join("o"));
+    let run = struck(&["strike", &padded("c.json", SANTOOR_CASE, " ", MB), "--out", &out, "-q"]);
+    assert!(run.status.success(), "a 1 MB case: {}", stderr(&run));
+    refused(&struck(&["strike", &padded("c.json", SANTOOR_CASE, " ", MB + 1), "--out", &out]), "larger than the 1 MB");
+    let big_song = padded("s.mid", "", " ", 16 * MB + 1);
+    refused(&struck(&["render", &big_song, "--out", &wav]), "larger than the 16 MB");
+    let at_size = padded("s.mid", "", " ", 16 * MB);
+    let said = stderr(&struck(&["render", &at_size, "--out", &wav]));
+    assert!(!said.contains("larger than"), "a 16 MB song is read (and refused for what it holds): {said}");
+}
+
+#[test]
+fn an_output_that_cannot_be_written_is_refused_before_the_instrument_or_the_run() {
+    use struck_tests::midi_gen::{TrackBuilder, at_120, key, metrical, smf_bytes};
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("a folder");
+    std::fs::create_dir(&folder).unwrap();
+    let file = dir.path().join("a file");
+    std::fs::write(&file, "mine").unwrap();
+    // A song the santoor plays but in part: "1 of 2 notes are outside the
+    // santoor's keys" is said once the instrument is built. The refusal comes
+    // before it, alone.
+    let mut track = TrackBuilder::new();
+    track.tempo(0, 120.0).note(0, at_120(0.5), key("A0"), 90).note(0, at_120(0.5), key("A4"), 90);
+    let song = dir.path().join("song.mid");
+    std::fs::write(&song, smf_bytes(midly::Format::SingleTrack, metrical(), &[track])).unwrap();
+    let run = struck(&["render", &text(&song), "--out", &text(&dir.path().join("x.wav")), "--instrument", "santoor"]);
+    assert!(run.status.success() && stderr(&run).contains("outside the santoor's keys"), "{}", stderr(&run));
+    for out in [text(&folder), text(&file.join("x.wav"))] {
+        refused(&struck(&["render", &text(&song), "--out", &out, "--instrument", "santoor"]), "nothing is written");
+    }
+    // A strike whose run ends refused (the hammer rebounds faster than it
+    // came): an output that cannot be written is refused before the run.
+    let case = santoor_case(dir.path());
+    let stiff = ["--set", "exciter.stiffness=1e22"];
+    let out = text(&dir.path().join("o"));
+    let run = struck(&["strike", &text(&case), "--out", &out, stiff[0], stiff[1]]);
+    refused(&run, "exciter.stiffness: the hammer rebounds");
+    refused(
+        &struck(&["strike", &text(&case), "--out", &out, "--wav", &text(&folder), stiff[0], stiff[1]]),
+        "is a directory",
+    );
+    refused(&struck(&["strike", &text(&case), "--out", &text(&file), stiff[0], stiff[1]]), "is not a folder");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    assert!(std::fs::read_dir(&folder).unwrap().next().is_none());
+}
+
+#[test]
+fn a_scales_description_is_printed_with_its_escapes_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let scale = dir.path().join("s.scl");
+    let degrees = "100.\n200.\n300.\n400.\n500.\n600.\n700.\n800.\n900.\n1000.\n1100.\n2/1\n";
+    std::fs::write(&scale, format!("! s.scl\nevil \u{1b}[31mred\n12\n{degrees}")).unwrap();
+    let wav = text(&dir.path().join("x.wav"));
+    let run = struck(&["render", &text(&midi("a4.mid")), "--out", &wav, "--scl", &text(&scale), "--tail-s", "0"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let said = stdout(&run);
+    assert!(!said.contains('\u{1b}') && said.contains("scale \"evil \\u{1b}[31mred\""), "{said:?}");
+}
+
+#[test]
+fn a_limit_on_threads_leaves_the_work_on_one_with_the_same_samples() {
+    use std::os::unix::fs::PermissionsExt;
+    // RLIMIT_NPROC counts every process and thread of the user: at 1, no
+    // thread can be started. (It does not hold root back: as root the run
+    // is another user's, who has none running.)
+    let dir = tempfile::tempdir().unwrap();
+    let open = |path: &Path, mode: u32| std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
+    open(dir.path(), 0o777);
+    let binary = dir.path().join("struck");
+    std::fs::copy(struck_tests::struck_binary(), &binary).unwrap();
+    open(&binary, 0o755);
+    let song = dir.path().join("song.mid");
+    std::fs::copy(midi("a4.mid"), &song).unwrap();
+    open(&song, 0o644);
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let root = status.lines().any(|l| l.starts_with("Uid:") && l.split_whitespace().nth(1) == Some("0"));
+    let mut command = std::process::Command::new(if root { "setpriv" } else { "prlimit" });
+    if root {
+        command.args(["--reuid=65534", "--regid=65534", "--clear-groups", "prlimit"]);
+    }
+    let limited = dir.path().join("limited.wav");
+    let run = command
+        .args(["--nproc=1"])
+        .arg(&binary)
+        .args(["render", &text(&song), "--out", &text(&limited)])
+        .output()
+        .unwrap();
+    let said = stderr(&run);
+    assert_eq!(run.status.code(), Some(0), "{said}");
+    assert!(said.contains("rendering on one thread") && !said.contains("panicked"), "{said}");
+    let free = dir.path().join("free.wav");
+    let run = struck(&["render", &text(&song), "--out", &text(&free), "-q"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(std::fs::read(&limited).unwrap() == std::fs::read(&free).unwrap(), "the same samples");
 }

@@ -343,22 +343,41 @@ impl Instrument {
             ringing,
             regulate: settings.strings_on_body,
         };
-        let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
-            let workers: Vec<_> = hands
-                .into_iter()
-                .map(|hand| {
-                    let (voicer, mut body) = (&voicer, soundboard.clone());
-                    scope.spawn(move || {
-                        hand.into_iter()
-                            .map(|(k, key)| {
-                                let v = voicer.voice(key, k, &mut body);
-                                (k, key, v)
-                            })
-                            .collect::<Vec<_>>()
-                    })
+        fn voice_hand<'k>(
+            voicer: &Voicer,
+            hand: Vec<(u8, &'k mut Key)>,
+            body: &mut Soundboard,
+        ) -> Vec<(u8, &'k mut Key, Voiced)> {
+            hand.into_iter()
+                .map(|(k, key)| {
+                    let v = voicer.voice(key, k, body);
+                    (k, key, v)
                 })
-                .collect();
-            workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+                .collect()
+        }
+        let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
+            // A hand goes to its thread once the thread runs; one no thread
+            // could be started for (a limit on threads or memory) is voiced
+            // here, the same (each key from a body at rest).
+            let mut workers = Vec::new();
+            let mut here = Vec::new();
+            for hand in hands {
+                let (give, take) = std::sync::mpsc::channel::<Vec<(u8, &mut Key)>>();
+                let (voicer, mut body) = (&voicer, soundboard.clone());
+                let worker = std::thread::Builder::new()
+                    .spawn_scoped(scope, move || voice_hand(voicer, take.recv().unwrap_or_default(), &mut body));
+                match worker {
+                    Ok(worker) => match give.send(hand) {
+                        Ok(()) => workers.push(worker),
+                        Err(std::sync::mpsc::SendError(hand)) => here.push(hand),
+                    },
+                    Err(_) => here.push(hand),
+                }
+            }
+            let mut voiced: Vec<_> =
+                here.into_iter().flat_map(|hand| voice_hand(&voicer, hand, &mut soundboard.clone())).collect();
+            voiced.extend(workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
+            voiced
         });
         let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
         voiced.sort_by_key(|v| v.0);

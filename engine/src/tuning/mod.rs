@@ -23,8 +23,8 @@ pub mod temperament;
 use serde::{Deserialize, Serialize};
 
 pub use scala::{
-    KeyboardMapping, MAX_DEGREE_CENTS, MAX_FILE_BYTES, MAX_MAP_SIZE, MAX_SCALE_DEGREES, ScalaScale, TuningError,
-    TuningFileError,
+    KeyboardMapping, MAX_DEGREE_CENTS, MAX_DESCRIPTION_CHARS, MAX_FILE_BYTES, MAX_MAP_SIZE, MAX_SCALE_DEGREES,
+    ScalaScale, TuningError, TuningFileError,
 };
 pub use stretch::stretch_cents;
 pub use temperament::Temperament;

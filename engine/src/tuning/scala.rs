@@ -26,6 +26,10 @@ pub const MAX_MAP_SIZE: usize = 4096;
 pub const MAX_DEGREE_CENTS: f64 = 120_000.0;
 /// A tuning file is read only up to this size, bytes.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
+/// Longest description a scale keeps, characters (a `.scl` file's longer
+/// description line is cut there): it is the scale's name, and it goes into
+/// every preset that holds the scale.
+pub const MAX_DESCRIPTION_CHARS: usize = 1000;
 /// The frequencies a keyboard mapping's reference key may be tuned to, Hz:
 /// MIDI's key 0 sounds at 8.2 Hz and key 127 at 12.5 kHz in equal
 /// temperament; a reference far outside leaves every key silent or beyond
@@ -219,7 +223,8 @@ impl ScalaScale {
                 format!("the last pitch is the period and must be above 1/1 (got {} cents)", crate::readable(period)),
             ));
         }
-        Ok(Self { description: description.trim().to_string(), degrees_cents, keyboard_mapping: None })
+        let description = description.trim().chars().take(MAX_DESCRIPTION_CHARS).collect();
+        Ok(Self { description, degrees_cents, keyboard_mapping: None })
     }
 
     /// Read a `.scl` file; the error names the file.
@@ -241,6 +246,9 @@ impl ScalaScale {
     }
 
     pub(super) fn validate(&self) -> Result<(), FieldError> {
+        if self.description.chars().count() > MAX_DESCRIPTION_CHARS {
+            return Err(FieldError::new("description", format!("must be at most {MAX_DESCRIPTION_CHARS} characters")));
+        }
         let n = self.degrees_cents.len();
         if n == 0 || n > MAX_SCALE_DEGREES {
             return Err(FieldError::new(

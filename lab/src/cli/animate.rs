@@ -10,6 +10,7 @@ use crate::strike::{ExciterSpec, StrikeCase};
 
 use crate::cli::Failure;
 use crate::cli::chart::read_case;
+use crate::console;
 use crate::plot::{Animation, AnimationFrame};
 
 /// Most frames accepted.
@@ -105,6 +106,6 @@ pub fn run(args: &AnimateArgs) -> Result<(), Failure> {
             .map_err(|e| std::io::Error::other(format!("{e:#}")))
     })?;
     staged.commit()?;
-    println!("wrote {}", super::shown(&args.out));
+    console::out(format!("wrote {}", super::shown(&args.out)));
     Ok(())
 }

@@ -8,9 +8,9 @@
 //! dotted name (`"full_keyboard.load_fraction"`). A missed goal is reported, not
 //! an error: the exit status is 0 whenever the measurements ran.
 
-use std::io::Write;
 use std::time::Duration;
 
+use crate::console;
 use crate::perf::workload::{Cores, Extras, KeyboardRun, Smoothing};
 use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
@@ -103,7 +103,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     if debug_build {
         // A warning, not part of the report: to stderr when stdout is the JSON.
         let note = "note: this is a debug build; build with --release for meaningful figures";
-        if args.json { eprintln!("struck bench: {note}") } else { out.line(note.to_string()) }
+        if args.json { console::err(format!("struck bench: {note}")) } else { out.line(note.to_string()) }
     }
 
     let mut goals = Goals::default();
@@ -433,10 +433,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         let report = with_dotted_keys(report);
         let text = serde_json::to_string_pretty(&report)
             .map_err(|e| Failure::failed(format!("cannot write the report as JSON: {e}")))?;
-        let mut stdout = std::io::stdout().lock();
-        writeln!(stdout, "{text}")
-            .and_then(|()| stdout.flush())
-            .map_err(|e| Failure::failed(format!("cannot write the report: {e}")))?;
+        console::out(text);
     }
     Ok(())
 }
@@ -485,7 +482,7 @@ struct Out {
 impl Out {
     fn line(&self, line: String) {
         if self.text {
-            println!("{line}");
+            console::out(line);
         }
     }
 

@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use struck_engine::design::InstrumentKind;
 
 use crate::cli::Failure;
+use crate::console;
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
 
@@ -175,18 +176,18 @@ pub fn hammer_case(args: &HammerArgs) -> Result<StrikeCase, Failure> {
 
 fn report(drawn: &[Drawn], started: Instant) {
     for d in drawn {
-        println!("wrote {} and {}", d.png.display(), d.csv.display());
+        console::out(format!("wrote {} and {}", d.png.display(), d.csv.display()));
     }
-    println!("took {:.1} s", started.elapsed().as_secs_f64());
+    console::out(format!("took {:.1} s", started.elapsed().as_secs_f64()));
 }
 
 pub fn run(args: &ChartArgs) -> Result<(), Failure> {
     let started = Instant::now();
-    let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
     // Drawn into a folder inside --out, then moved out of it together.
     let final_out = &args.out;
     let staging = super::output::StagedFolder::within(final_out)?;
     let out = staging.path();
+    let failed = |e: anyhow::Error| staging.failure(final_out, &e);
     let drawn = match &args.chart {
         Chart::Hammer(h) => {
             check_grid(h.grid.grid)?;
@@ -243,6 +244,10 @@ pub fn run(args: &ChartArgs) -> Result<(), Failure> {
                     cases.push(c);
                 }
             }
+            // Every run is held until the charts are drawn.
+            let memory = cases.iter().map(strike::run::peak_bytes).sum();
+            let what = format!("{} on one chart", super::render::count(cases.len(), "strike"));
+            super::room::check(&what, memory, 0, final_out)?;
             figures::strikes(&cases, out, s.per_speed).map_err(failed)?
         }
         Chart::Clavichord => figures::clavichord(out).map_err(failed)?,

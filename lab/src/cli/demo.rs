@@ -13,6 +13,7 @@ use struck_engine::design::InstrumentKind;
 use super::output::Staged;
 use crate::cli::Failure;
 use crate::cli::animate::{self, FilmOptions};
+use crate::console;
 use crate::demo_page::{self, Entry};
 use crate::figures::hammer::{self, GridOptions};
 use crate::figures::{self, Drawn};
@@ -114,9 +115,9 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let final_out = &args.out;
     let staging = super::output::StagedFolder::within(final_out)?;
     let out = staging.path();
-    let failed = |e: anyhow::Error| Failure::failed(format!("{e:#}"));
+    let failed = |e: anyhow::Error| staging.failure(final_out, &e);
     let grid = if args.quick { QUICK_GRID } else { FULL_GRID };
-    println!("struck demo: the seed's sounds, figures and animations into {}", final_out.display());
+    console::out(format!("struck demo: the seed's sounds, figures and animations into {}", final_out.display()));
 
     // Sounds, in parallel.
     let sounds = seed_sounds::sounds();
@@ -132,7 +133,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     progress.finish();
     let mut staged = Staged::default();
     for (s, samples) in sounds.iter().zip(&rendered) {
-        staged.write_wav16(&out.join(&s.file), SOUND_RATE_HZ, samples)?;
+        staged.write_wav16(&out.join(&s.file), SOUND_RATE_HZ, samples).map_err(|e| staging.as_out(final_out, e))?;
     }
     staged.commit()?;
     let sound = |n: u8| -> Entry {
@@ -235,15 +236,17 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
         &entries,
     );
     let mut staged = Staged::default();
-    staged.write(&out.join("index.html"), |w| std::io::Write::write_all(w, html.as_bytes()))?;
+    staged
+        .write(&out.join("index.html"), |w| std::io::Write::write_all(w, html.as_bytes()))
+        .map_err(|e| staging.as_out(final_out, e))?;
     staged.commit()?;
     staging.commit_into(final_out, &[])?;
     let files = entries.iter().flat_map(Entry::links).count();
-    println!(
+    console::out(format!(
         "wrote {} files and {} in {:.1} s",
         files,
         final_out.join("index.html").display(),
         started.elapsed().as_secs_f64()
-    );
+    ));
     Ok(())
 }

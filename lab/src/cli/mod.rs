@@ -22,6 +22,8 @@ pub use failure::{EXIT_BAD_INPUT, EXIT_FAILURE, Failure, INTERRUPTED, printable,
 
 use std::process::ExitCode;
 
+use crate::console;
+
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -127,38 +129,55 @@ pub fn run() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
-            // --help, --version: what was asked for, on stdout.
-            let _ = e.print();
-            return ExitCode::SUCCESS;
+            // --help, --version: what was asked for, on stdout (a reader that
+            // went away wanted no more; a stdout that fails lost it).
+            return match e.print() {
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+                    console::err(format!("struck: cannot print the help: {e}"));
+                    ExitCode::from(EXIT_FAILURE)
+                }
+                _ => ExitCode::SUCCESS,
+            };
         }
         Err(e) => {
             // One line: clap's message (up to its usage block), joined.
             let text = e.render().to_string();
             let message: Vec<&str> = text.lines().take_while(|l| !l.trim().is_empty()).map(str::trim).collect();
-            eprintln!("struck: {}", printable(message.join(" ").trim_start_matches("error: ")));
+            console::err(format!("struck: {}", printable(message.join(" ").trim_start_matches("error: "))));
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
-    crate::cleanup::install(match &cli.command {
+    let command = match &cli.command {
         Command::Strike(_) => "struck strike",
         Command::Bench(_) => "struck bench",
         Command::Render(_) => "struck render",
         Command::Chart(_) => "struck chart",
         Command::Animate(_) => "struck animate",
         Command::Demo(_) => "struck demo",
-    });
+    };
+    crate::cleanup::install(command);
+    room::ignore_file_size_signal();
     let result = match cli.command {
-        Command::Strike(args) => strike::run(&args).map_err(|e| ("struck strike", e)),
-        Command::Bench(args) => bench::run(&args).map_err(|e| ("struck bench", e)),
-        Command::Render(args) => render::run(&args).map_err(|e| ("struck render", e)),
-        Command::Chart(args) => chart::run(&args).map_err(|e| ("struck chart", e)),
-        Command::Animate(args) => animate::run(&args).map_err(|e| ("struck animate", e)),
-        Command::Demo(args) => demo::run(&args).map_err(|e| ("struck demo", e)),
+        Command::Strike(args) => strike::run(&args),
+        Command::Bench(args) => bench::run(&args),
+        Command::Render(args) => render::run(&args),
+        Command::Chart(args) => chart::run(&args),
+        Command::Animate(args) => animate::run(&args),
+        Command::Demo(args) => demo::run(&args),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err((command, failure)) => {
-            eprintln!("{command}: {}", failure.line());
+        Ok(()) => match console::stdout_failure() {
+            // The work was done (its files are in place); what it had to say
+            // was lost. (A reader that went away is not a failure.)
+            Some(e) => {
+                let files = if command == "struck bench" { "" } else { " (its files were written)" };
+                console::err(format!("{command}: cannot print the report{files}: {e}"));
+                ExitCode::from(EXIT_FAILURE)
+            }
+            None => ExitCode::SUCCESS,
+        },
+        Err(failure) => {
+            console::err(format!("{command}: {}", failure.line()));
             ExitCode::from(failure.status)
         }
     }

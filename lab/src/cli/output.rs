@@ -17,7 +17,73 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::failure::{Failure, shown};
+use super::room;
 use crate::cleanup;
+
+/// The process that made a temporary named `name` (`.struck-PID-N.part`, a
+/// file, or `.struck-PID.part`, a folder), if it is one.
+fn temporary_owner(name: &str) -> Option<u32> {
+    let middle = name.strip_prefix(".struck-")?.strip_suffix(".part")?;
+    let (pid, n) = middle.split_once('-').unwrap_or((middle, "0"));
+    if n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Whether the process `pid` could still be a struck writing its temporaries:
+/// it runs, and is a struck (its name or its program is ours). None when
+/// that cannot be known (no /proc).
+fn may_be_writing(pid: u32) -> Option<bool> {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return None;
+    }
+    let dir = proc.join(pid.to_string());
+    if !dir.exists() {
+        return Some(false);
+    }
+    let named_struck = fs::read_to_string(dir.join("comm")).is_ok_and(|c| c.contains("struck"));
+    let ours = match (fs::read_link(dir.join("exe")), fs::read_link(proc.join("self/exe"))) {
+        (Ok(theirs), Ok(mine)) => theirs == mine,
+        // (Another user's process: it may be.)
+        (Err(_), _) => true,
+        _ => false,
+    };
+    Some(named_struck || ours)
+}
+
+/// Remove, from the folder `dir`, the temporaries a struck that was killed
+/// (SIGKILL, a crash, the power) left there: `.struck-PID-N.part` files and
+/// `.struck-PID.part` folders whose process is gone. (What stood at an
+/// output and was set aside while it was replaced, `.struck-PID-N.old`, is
+/// the user's: never removed.)
+fn sweep_stale(dir: &Path) {
+    let Ok(entries) = fs::read_dir(dir) else { return };
+    let me = std::process::id();
+    for entry in entries.filter_map(Result::ok) {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temporary_owner) else { continue };
+        if pid == me || may_be_writing(pid) != Some(false) {
+            continue;
+        }
+        let path = entry.path();
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => {
+                let _ = fs::remove_dir_all(&path);
+            }
+            Ok(t) if t.is_file() => {
+                let _ = fs::remove_file(&path);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// A mono WAV's format.
+fn mono(sample_rate_hz: f64, bits_per_sample: u16, sample_format: hound::SampleFormat) -> hound::WavSpec {
+    hound::WavSpec { channels: 1, sample_rate: sample_rate_hz.round() as u32, bits_per_sample, sample_format }
+}
 
 /// A file's identity on its file system (the same file under any name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,11 +105,22 @@ fn identity(path: &Path) -> Option<FileId> {
     }
 }
 
+/// A file staged: its temporary, where it goes, and whether it was written.
+struct Staging {
+    temporary: PathBuf,
+    destination: PathBuf,
+    written: bool,
+}
+
+/// A file whose temporary is made ([`Staged::reserve`]) and waits to be written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slot(usize);
+
 /// Files written to temporary names, waiting to be put in place together.
 #[derive(Default)]
 pub struct Staged {
-    /// (temporary, destination), in the order staged.
-    files: Vec<(PathBuf, PathBuf)>,
+    /// The files, in the order staged.
+    files: Vec<Staging>,
     /// The command's inputs: how the user named them, and what they are.
     inputs: Vec<(PathBuf, FileId)>,
     /// Folders made for the outputs, outermost first.
@@ -147,32 +224,82 @@ impl Staged {
         path.with_file_name(format!(".struck-{}-{}.part", std::process::id(), self.files.len()))
     }
 
-    /// Have `write_to` write a temporary file beside `path` and stage it.
-    fn stage(&mut self, named: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+    /// Make the temporary file for `named` beside where it goes (after the
+    /// checks every destination has, the folders made), before the work
+    /// that fills it: a destination that cannot be written is refused before
+    /// any time is spent. Written later by [`Self::fill`].
+    pub fn reserve(&mut self, named: &Path) -> Result<Slot, Failure> {
         check_destination(named, &self.inputs)?;
         let path = &through_links(named)?;
-        if self.files.iter().any(|(_, d)| d == path || identity(d).is_some_and(|id| identity(path) == Some(id))) {
+        if self
+            .files
+            .iter()
+            .any(|f| f.destination == *path || identity(&f.destination).is_some_and(|id| identity(path) == Some(id)))
+        {
             return Err(Failure::bad_input(format!("{}: named for two outputs", shown(named))));
         }
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
+        sweep_stale(path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
         let temporary = self.temporary_beside(path);
         cleanup::track(&temporary);
-        // Whether the folder takes a file at all is asked before any work is
-        // done, and told of the path the user gave.
-        let result = fs::File::create(&temporary).and_then(|_| write_to(&temporary));
-        match result {
+        // Whether the folder takes a file at all is asked here, and told of
+        // the path the user gave.
+        if let Err(e) = fs::File::create(&temporary) {
+            cleanup::forget(&temporary);
+            return Err(write_failure("write", named, &e));
+        }
+        self.files.push(Staging { temporary, destination: path.to_path_buf(), written: false });
+        Ok(Slot(self.files.len() - 1))
+    }
+
+    /// Have `write_to` write the file reserved as `slot` (at the path it is given).
+    pub fn fill(
+        &mut self,
+        slot: Slot,
+        named: &Path,
+        write_to: impl FnOnce(&Path) -> io::Result<()>,
+    ) -> Result<(), Failure> {
+        let Some(staging) = self.files.get_mut(slot.0) else {
+            return Err(Failure::failed(format!("{}: was not reserved", shown(named))));
+        };
+        match write_to(&staging.temporary) {
             Ok(()) => {
-                self.files.push((temporary, path.to_path_buf()));
+                staging.written = true;
                 Ok(())
             }
             Err(e) => {
-                let _ = fs::remove_file(&temporary);
-                cleanup::forget(&temporary);
-                Err(write_failure("write", named, &e))
+                // (A write past `ulimit -f` fails with an error the writer may
+                // have wrapped; the file's length tells.)
+                let limit =
+                    room::at_file_size_limit(&staging.temporary).or_else(|| room::file_size_error(&e.to_string()));
+                Err(match limit {
+                    Some(limit) => room::file_size_failure(named, limit),
+                    None => write_failure("write", named, &e),
+                })
             }
         }
+    }
+
+    /// [`Self::fill`] through a buffered writer.
+    pub fn fill_with(
+        &mut self,
+        slot: Slot,
+        named: &Path,
+        fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
+    ) -> Result<(), Failure> {
+        self.fill(slot, named, |temporary| {
+            let mut writer = BufWriter::new(fs::File::create(temporary)?);
+            fill(&mut writer)?;
+            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
+        })
+    }
+
+    /// Have `write_to` write a temporary file beside `path` and stage it.
+    fn stage(&mut self, named: &Path, write_to: impl FnOnce(&Path) -> io::Result<()>) -> Result<(), Failure> {
+        let slot = self.reserve(named)?;
+        self.fill(slot, named, write_to)
     }
 
     /// Stage `temporary`, a file already written beside `path` (in a
@@ -183,7 +310,7 @@ impl Staged {
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
             self.make_folders(parent)?;
         }
-        self.files.push((temporary.to_path_buf(), path.to_path_buf()));
+        self.files.push(Staging { temporary: temporary.to_path_buf(), destination: path.to_path_buf(), written: true });
         Ok(())
     }
 
@@ -199,37 +326,34 @@ impl Staged {
         path: &Path,
         fill: impl FnOnce(&mut BufWriter<fs::File>) -> io::Result<()>,
     ) -> Result<(), Failure> {
-        self.stage(path, |temporary| {
-            let mut writer = BufWriter::new(fs::File::create(temporary)?);
-            fill(&mut writer)?;
-            writer.into_inner().map_err(|e| e.into_error())?.sync_all()
-        })
+        let slot = self.reserve(path)?;
+        self.fill_with(slot, path, fill)
     }
 
-    /// Write a mono 32-bit float WAV.
-    pub fn write_wav(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        self.write_mono(path, sample_rate_hz, 32, hound::SampleFormat::Float, samples, |w, s| w.write_sample(s))
+    /// Write a mono 32-bit float WAV into the file reserved as `slot`.
+    pub fn fill_wav(&mut self, slot: Slot, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
+        let spec = mono(sample_rate_hz, 32, hound::SampleFormat::Float);
+        self.write_mono(slot, path, spec, samples, |w, s| w.write_sample(s))
     }
 
     /// Write a mono 16-bit PCM WAV (what every browser's player takes), clipping at full scale.
     pub fn write_wav16(&mut self, path: &Path, sample_rate_hz: f64, samples: &[f32]) -> Result<(), Failure> {
-        self.write_mono(path, sample_rate_hz, 16, hound::SampleFormat::Int, samples, |w, s| {
+        let slot = self.reserve(path)?;
+        let spec = mono(sample_rate_hz, 16, hound::SampleFormat::Int);
+        self.write_mono(slot, path, spec, samples, |w, s| {
             w.write_sample((s.clamp(-1.0, 1.0) * i16::MAX as f32).round() as i16)
         })
     }
 
     fn write_mono(
         &mut self,
+        slot: Slot,
         path: &Path,
-        sample_rate_hz: f64,
-        bits_per_sample: u16,
-        sample_format: hound::SampleFormat,
+        spec: hound::WavSpec,
         samples: &[f32],
         put: impl Fn(&mut hound::WavWriter<BufWriter<fs::File>>, f32) -> hound::Result<()>,
     ) -> Result<(), Failure> {
-        let spec =
-            hound::WavSpec { channels: 1, sample_rate: sample_rate_hz.round() as u32, bits_per_sample, sample_format };
-        self.stage(path, |temporary| {
+        self.fill(slot, path, |temporary| {
             let mut w = hound::WavWriter::create(temporary, spec).map_err(io::Error::other)?;
             for &s in samples {
                 put(&mut w, s).map_err(io::Error::other)?;
@@ -240,12 +364,23 @@ impl Staged {
 
     /// Put every staged file in place, all or none: what stood at a
     /// destination is set aside first and restored if any file fails.
+    /// Refused once a stop signal came: whatever stood there is kept (and
+    /// the temporaries are removed as `self` goes).
     pub fn commit(mut self) -> Result<(), Failure> {
-        cleanup::holding(|held| self.commit_held(held))
+        cleanup::holding(|held| {
+            if cleanup::interrupted() {
+                return Err(Failure::interrupted());
+            }
+            self.commit_held(held)
+        })
     }
 
     fn commit_held(&mut self, held: &mut cleanup::Held) -> Result<(), Failure> {
-        let files = std::mem::take(&mut self.files);
+        if let Some(f) = self.files.iter().find(|f| !f.written) {
+            return Err(Failure::failed(format!("{}: reserved but never written", shown(&f.destination))));
+        }
+        let files: Vec<(PathBuf, PathBuf)> =
+            std::mem::take(&mut self.files).into_iter().map(|f| (f.temporary, f.destination)).collect();
         // Set aside what the files replace.
         let mut aside: Vec<(PathBuf, PathBuf)> = Vec::new();
         let mut placed: Vec<&Path> = Vec::new();
@@ -268,6 +403,9 @@ impl Staged {
             Ok(()) => {
                 for (old, _) in &aside {
                     let _ = fs::remove_file(old);
+                }
+                for (_, path) in &files {
+                    held.placed(path);
                 }
                 self.committed = true;
                 self.forget_all(&files, held);
@@ -305,9 +443,9 @@ impl Drop for Staged {
     /// Files not committed (an error came first) are removed, and the folders
     /// made for them if they are empty.
     fn drop(&mut self) {
-        for (temporary, _) in &self.files {
-            let _ = fs::remove_file(temporary);
-            cleanup::forget(temporary);
+        for f in &self.files {
+            let _ = fs::remove_file(&f.temporary);
+            cleanup::forget(&f.temporary);
         }
         if !self.committed {
             for dir in self.made.iter().rev() {
@@ -337,6 +475,7 @@ impl StagedFolder {
         if let Some(taken) = out.ancestors().find(|d| !d.as_os_str().is_empty() && d.exists() && !d.is_dir()) {
             return Err(Failure::bad_input(format!("{}: is not a folder; nothing is written into it", shown(taken))));
         }
+        sweep_stale(out);
         let mut staged = Self { path: out.join(format!(".struck-{}.part", std::process::id())), made: Vec::new() };
         let missing: Vec<PathBuf> =
             out.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf).collect();
@@ -353,6 +492,36 @@ impl StagedFolder {
     /// Where to draw.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// `failure` of a file drawn here, naming it as it would be in `out`.
+    pub fn as_out(&self, out: &Path, failure: Failure) -> Failure {
+        let message = failure.message.replace(&shown(&self.path), &shown(out));
+        Failure { message, ..failure }
+    }
+
+    /// The failure of drawing into the folder for `out`: the file-size limit
+    /// if a file drawn reached it (named as it would be in `out`), else `error`.
+    pub fn failure(&self, out: &Path, error: &anyhow::Error) -> Failure {
+        let text = format!("{error:#}");
+        let full = fs::read_dir(&self.path)
+            .into_iter()
+            .flatten()
+            .filter_map(Result::ok)
+            .find_map(|e| room::at_file_size_limit(&e.path()).map(|limit| (Some(e.file_name()), limit)));
+        // A chart's writer removes what it could not finish, and names it.
+        let named = || {
+            error.chain().find_map(|e| match e.downcast_ref::<crate::plot::PlotError>() {
+                Some(crate::plot::PlotError::Write { path, .. }) => path.file_name().map(|n| n.to_os_string()),
+                _ => None,
+            })
+        };
+        match full.or_else(|| room::file_size_error(&text).map(|limit| (named(), limit))) {
+            Some((name, limit)) => {
+                room::file_size_failure(&name.map_or_else(|| out.to_path_buf(), |n| out.join(n)), limit)
+            }
+            None => Failure::failed(text),
+        }
     }
 
     /// Put every file drawn into `out` together (see [`Staged::commit`]),
@@ -388,5 +557,30 @@ pub fn csv_field(out: &mut impl Write, value: Option<f64>) -> io::Result<()> {
     match value {
         Some(v) => write!(out, "{v:e}"),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_struck_temporaries_name_their_process() {
+        assert_eq!(temporary_owner(".struck-1234-0.part"), Some(1234));
+        assert_eq!(temporary_owner(".struck-1234-17.part"), Some(1234));
+        assert_eq!(temporary_owner(".struck-1234.part"), Some(1234));
+        for name in
+            [".struck-1234-0.old", "struck-1234-0.part", ".struck-12a-0.part", ".struck-1234-.part", ".struck--1.part"]
+        {
+            assert_eq!(temporary_owner(name), None, "{name}");
+        }
+        // This program may be (it is itself); the one that started it (cargo) is
+        // running, and no struck; one that ended is not running.
+        assert_eq!(may_be_writing(std::process::id()), Some(true));
+        assert_eq!(may_be_writing(std::os::unix::process::parent_id()), Some(false));
+        let mut gone = std::process::Command::new("true").spawn().unwrap();
+        let pid = gone.id();
+        gone.wait().unwrap();
+        assert_eq!(may_be_writing(pid), Some(false));
     }
 }

@@ -27,6 +27,7 @@ use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperamen
 
 use super::output::Staged;
 use crate::cli::Failure;
+use crate::console;
 use crate::midi_file::{self, ReadOptions};
 
 /// Sample rates rendered, Hz.
@@ -37,6 +38,11 @@ pub const MAX_TAIL_S: f64 = 600.0;
 pub const MAX_BLOCK_SIZE: usize = 8192;
 /// A WAV's sizes are 32-bit: the data may not exceed this many bytes.
 const MAX_WAV_DATA_BYTES: u64 = u32::MAX as u64 - 64;
+/// Bytes before a float WAV's samples (hound's RIFF, fmt and fact chunks).
+pub const WAV_HEADER_BYTES: u64 = 68;
+/// Memory a render holds, whatever the song's length (the WAV is written as
+/// it is played): at most 20 MB measured for every instrument, rounded up.
+const RENDER_PEAK_BYTES: u64 = 32 << 20;
 
 /// Samples between progress-bar updates.
 const PROGRESS_EVERY: u64 = 1 << 15;
@@ -179,6 +185,23 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
     let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
+    // The WAV's temporary is made beside it now: an --out that cannot be
+    // written is refused before the instrument is built (a second or more).
+    let inputs: Vec<&Path> =
+        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
+    let mut staged = Staged::reading(&inputs);
+    let slot = staged.reserve(&args.out)?;
+    super::room::check_file_size(&args.out, WAV_HEADER_BYTES + total * 8)?;
+    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES) {
+        return Err(Failure::bad_input(format!(
+            "the {kind} would hold {} in memory while it plays; {}; nothing was written",
+            super::room::size_text_rounded(RENDER_PEAK_BYTES),
+            room.told
+        )));
+    }
     // Ctrl-C (or SIGTERM) stops after the instrument is built or between
     // blocks, so nothing (or only the partial file, then removed) is written.
     let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
@@ -199,16 +222,16 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         && let Err(e) = synth.share_work(true)
         && !args.quiet
     {
-        eprintln!("struck render: rendering on one thread (a second could not be started: {e})");
+        console::err(format!("struck render: rendering on one thread (a second could not be started: {e})"));
     }
 
     if !args.quiet && playable < notes {
-        eprintln!(
+        console::err(format!(
             "struck render: {} of {notes} are outside the {kind}'s keys (MIDI {}..={}) and stay silent",
             count(notes - playable, "note"),
             keys.start(),
             keys.end()
-        );
+        ));
     }
 
     let progress = (!args.quiet && io::stderr().is_terminal()).then(|| progress_bar(total));
@@ -221,13 +244,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     };
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
-    let inputs: Vec<&Path> =
-        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
-            .into_iter()
-            .flatten()
-            .collect();
-    let mut staged = Staged::reading(&inputs);
-    let written = staged.write(&args.out, |w| {
+    let written = staged.fill_with(slot, &args.out, |w| {
         let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
         let mut done = 0u64;
         render(&mut synth, &song.events, total, block_size, |left, right| {
@@ -278,14 +295,19 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         } else {
             "silent".to_string()
         };
-        let tuning_note = if tuned { format!(" ({})", settings.tuning.describe()) } else { String::new() };
-        println!(
+        // (A scale's description is the file's text: its control characters are shown, not acted on.)
+        let tuning_note = if tuned {
+            format!(" ({})", super::failure::printable(&settings.tuning.describe()))
+        } else {
+            String::new()
+        };
+        console::out(format!(
             "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
              ({:.1}x real time), {peak_note}",
             super::shown(&args.out),
             count(notes, "note"),
             audio_s / wall_s.max(1e-9)
-        );
+        ));
     }
     Ok(())
 }

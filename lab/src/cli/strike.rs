@@ -7,6 +7,7 @@ use crate::strike::{self, LabRun};
 
 use super::output::{Staged, csv_field};
 use crate::cli::Failure;
+use crate::console;
 
 #[derive(clap::Args)]
 pub struct StrikeArgs {
@@ -93,17 +94,28 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             struck_engine::readable(case.sample_rate_hz)
         )));
     }
-    // Room for the trace in memory and the files on disk, before starting.
-    let rows = case.sample_count() as u64;
-    let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
-    super::room::check(&format!("{shown} ({rows} samples)"), strike::run::peak_bytes(&case), disk, &args.out)?;
-    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).ok_or_else(Failure::interrupted)?;
-    check_finite(&result)?;
-    check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
-
+    // The outputs' temporaries are made first: an --out or --wav that cannot
+    // be written is refused before the run.
     let mut staged = Staged::reading(&[args.case.as_path()]);
     let metrics_path = args.out.join("metrics.json");
     let trace_path = args.out.join("trace.csv");
+    let metrics_slot = staged.reserve(&metrics_path)?;
+    let trace_slot = staged.reserve(&trace_path)?;
+    let wav_slot = args.wav.as_ref().map(|wav| staged.reserve(wav)).transpose()?;
+    // Room for the trace in memory and the files on disk, before starting.
+    let rows = case.sample_count() as u64;
+    let disk = rows * CSV_BYTES_PER_ROW + args.wav.as_ref().map_or(0, |_| rows * 4);
+    if let Some(wav) = &args.wav {
+        super::room::check_file_size(wav, super::render::WAV_HEADER_BYTES + rows * 4)?;
+    }
+    super::room::check(&format!("{shown} ({rows} samples)"), strike::run::peak_bytes(&case), disk, &args.out)?;
+    let result = strike::run::run_stoppable(&case, crate::cleanup::flag()).map_err(|stopped| match stopped {
+        strike::run::Stopped::Interrupted => Failure::interrupted(),
+        strike::run::Stopped::OutOfMemory { bytes } => out_of_memory(&format!("{shown} ({rows} samples)"), bytes),
+    })?;
+    check_finite(&result)?;
+    check_energy(&case, &result).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
+
     let metrics = serde_json::to_value(&result.metrics).expect("metrics serialise");
     if let Some(field) = null_field(&metrics, "") {
         return Err(Failure::bad_input(format!(
@@ -111,23 +123,27 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
         )));
     }
     let metrics = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
-    staged.write(&metrics_path, |w| writeln!(w, "{metrics}"))?;
+    staged.fill_with(metrics_slot, &metrics_path, |w| writeln!(w, "{metrics}"))?;
     stop_if_interrupted()?;
     staged
-        .write(&trace_path, |w| {
+        .fill_with(trace_slot, &trace_path, |w| {
             write_trace(w, &result)?;
             stop_if_interrupted().map_err(|_| std::io::Error::other("interrupted"))
         })
         .map_err(|e| if crate::cleanup::interrupted() { Failure::interrupted() } else { e })?;
     let mut wav_note = String::new();
-    if let Some(wav) = &args.wav {
+    if let (Some(wav), Some(slot)) = (&args.wav, wav_slot) {
         let peak = result.trace.bridge_force_n.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let gain = match args.wav_gain_db {
             Some(db) => 10f64.powf(db / 20.0),
             None if peak > 0.0 => NORMALISED_PEAK / peak,
             None => 1.0,
         };
-        let samples: Vec<f32> = result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32).collect();
+        let mut samples: Vec<f32> = Vec::new();
+        samples
+            .try_reserve_exact(result.trace.len())
+            .map_err(|_| out_of_memory(&format!("--wav {}", super::shown(wav)), rows * 4))?;
+        samples.extend(result.trace.bridge_force_n.iter().map(|v| (v * gain) as f32));
         if !samples.iter().all(|s| s.is_finite()) {
             return Err(Failure::bad_input(format!(
                 "--wav-gain-db {:.1}: the loudest sample, {:.3e} N, would leave a float WAV's range",
@@ -135,7 +151,7 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
                 peak
             )));
         }
-        staged.write_wav(wav, case.sample_rate_hz, &samples)?;
+        staged.fill_wav(slot, wav, case.sample_rate_hz, &samples)?;
         stop_if_interrupted()?;
         wav_note = format!(", {} (gain {:+.1} dB re 1 N)", super::shown(wav), 20.0 * gain.log10());
     }
@@ -151,13 +167,22 @@ pub fn run(args: &StrikeArgs) -> Result<(), Failure> {
             n => format!("{n} contacts, {:.3} ms in all", m.contact_time_s * 1e3),
         };
         let rebound = m.rebound_speed_m_s.map(|v| format!(", rebound {v:.3} m/s")).unwrap_or_default();
-        println!(
+        console::out(format!(
             "{name}: {} modes to {:.0} Hz; {contacts}{rebound}; bridge force {:.4} N RMS",
             m.string.mode_count, m.string.max_mode_frequency_hz, m.bridge_force_rms_n
-        );
-        println!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path));
+        ));
+        console::out(format!("wrote {}, {}{wav_note}", super::shown(&metrics_path), super::shown(&trace_path)));
     }
     Ok(())
+}
+
+/// What a strike says when `bytes` of memory in one piece could not be had.
+fn out_of_memory(what: &str, bytes: u64) -> Failure {
+    let limit = super::room::tightest_memory_limit().map(|l| format!(" ({l})")).unwrap_or_default();
+    Failure::bad_input(format!(
+        "{what}: cannot get {} of memory{limit}; nothing was written",
+        super::room::size_text_rounded(bytes)
+    ))
 }
 
 fn write_trace(w: &mut impl Write, result: &LabRun) -> std::io::Result<()> {

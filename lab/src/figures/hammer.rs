@@ -63,7 +63,11 @@ fn run(grid: &HammerGrid, what: &str, options: &GridOptions) -> (GridResult, f64
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     if options.progress {
-        println!("{what}: {} strikes on {} threads in {seconds:.1} s", grid.len(), rayon::current_num_threads());
+        crate::console::out(format!(
+            "{what}: {} strikes on {} threads in {seconds:.1} s",
+            grid.len(),
+            rayon::current_num_threads()
+        ));
     }
     (result, seconds)
 }

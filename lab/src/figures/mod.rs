@@ -373,6 +373,7 @@ pub fn clavichord_strikes(dir: &Path) -> anyhow::Result<Vec<Drawn>> {
 /// A strike chart of any cases: contact and bridge force against time and their
 /// spectra, every case on one plot (`struck chart strike`).
 pub fn strikes(cases: &[StrikeCase], dir: &Path, normalise_by_speed: bool) -> anyhow::Result<Vec<Drawn>> {
+    let never = std::sync::atomic::AtomicBool::new(false);
     let runs: Vec<(String, LabRun, f64)> = cases
         .iter()
         .enumerate()
@@ -382,9 +383,19 @@ pub fn strikes(cases: &[StrikeCase], dir: &Path, normalise_by_speed: bool) -> an
                 strike::ExciterSpec::Tangent(t) => t.speed_m_s,
                 strike::ExciterSpec::Pluck(_) => 1.0,
             };
-            (c.name.clone().unwrap_or_else(|| format!("case {}", i + 1)), strike::run(c), speed)
+            let name = c.name.clone().unwrap_or_else(|| format!("case {}", i + 1));
+            // (Memory that cannot be had is said, not aborted on.)
+            match strike::run::run_stoppable(c, &never) {
+                Ok(run) => Ok((name, run, speed)),
+                Err(strike::run::Stopped::OutOfMemory { bytes }) => Err(anyhow::anyhow!(
+                    "{}: cannot get {} of memory for its trace",
+                    crate::cli::printable(&name),
+                    crate::cli::room::size_text_rounded(bytes)
+                )),
+                Err(strike::run::Stopped::Interrupted) => Err(anyhow::anyhow!("interrupted")),
+            }
         })
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
     let until = runs.iter().map(|(_, r, _)| contact_end_s(r)).fold(0.0, f64::max).max(2e-3) * 1.2;
     let line = |pick: fn(&LabRun) -> &Vec<f64>, per_speed: bool| -> Vec<Series> {
         runs.iter()

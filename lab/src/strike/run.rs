@@ -164,21 +164,48 @@ pub fn merge_contacts(raw: &[Contact], gap_s: f64) -> Vec<Contact> {
 /// Simulate a case.
 pub fn run(case: &StrikeCase) -> LabRun {
     let never = std::sync::atomic::AtomicBool::new(false);
-    run_stoppable(case, &never).expect("a run nothing stops finishes")
+    match run_stoppable(case, &never) {
+        Ok(run) => run,
+        Err(Stopped::Interrupted) => unreachable!("a run nothing stops finishes"),
+        // As any allocation that fails.
+        Err(Stopped::OutOfMemory { bytes }) => std::alloc::handle_alloc_error(
+            std::alloc::Layout::from_size_align(bytes as usize, 8).unwrap_or(std::alloc::Layout::new::<f64>()),
+        ),
+    }
+}
+
+/// Why a run did not finish.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stopped {
+    /// The stop flag was raised.
+    Interrupted,
+    /// The memory for its trace could not be had: the bytes of one column.
+    OutOfMemory { bytes: u64 },
+}
+
+/// A trace column with room for `rows` samples, asked for without aborting
+/// when the memory is not there.
+fn column(rows: usize) -> Result<Vec<f64>, Stopped> {
+    let mut column = Vec::new();
+    column.try_reserve_exact(rows).map_err(|_| Stopped::OutOfMemory { bytes: (rows as u64).saturating_mul(8) })?;
+    Ok(column)
 }
 
 /// Bytes a run holds at its peak per sample of its trace: measured 81 (a
 /// hammer case, 3.84 million samples, 313 MB peak resident), the trace's four
 /// columns and the filtered copies and spectra its metrics take.
 const PEAK_BYTES_PER_SAMPLE: u64 = 88;
+/// Bytes the trace's four columns take per sample.
+const TRACE_BYTES_PER_SAMPLE: u64 = 32;
 
 /// Bytes a run of `case` holds in memory at its peak, about.
 pub fn peak_bytes(case: &StrikeCase) -> u64 {
     case.sample_count() as u64 * PEAK_BYTES_PER_SAMPLE
 }
 
-/// [`run`], checking `stop` every few thousand samples: None once it is set.
-pub fn run_stoppable(case: &StrikeCase, stop: &std::sync::atomic::AtomicBool) -> Option<LabRun> {
+/// [`run`], checking `stop` every few thousand samples; the trace's memory
+/// is asked for first, and its lack reported rather than aborting.
+pub fn run_stoppable(case: &StrikeCase, stop: &std::sync::atomic::AtomicBool) -> Result<LabRun, Stopped> {
     let string = case.build_string();
     let fs = case.sample_rate_hz;
     let rows = case.sample_count();
@@ -191,16 +218,22 @@ pub fn run_stoppable(case: &StrikeCase, stop: &std::sync::atomic::AtomicBool) ->
     let is_pluck = matches!(case.exciter, ExciterSpec::Pluck(_));
     let mut trace = Trace {
         sample_rate_hz: fs,
-        contact_force_n: Vec::with_capacity(rows),
-        bridge_force_n: Vec::with_capacity(rows),
-        exciter_position_m: (!is_pluck).then(|| Vec::with_capacity(rows)),
-        string_position_m: Vec::with_capacity(rows),
+        contact_force_n: column(rows)?,
+        bridge_force_n: column(rows)?,
+        exciter_position_m: if is_pluck { None } else { Some(column(rows)?) },
+        string_position_m: column(rows)?,
     };
+    // The rest of the peak (the metrics' filtered copies and spectra) is
+    // asked for too, and given back: a run that could not finish does not start.
+    let rest = (rows as u64).saturating_mul(PEAK_BYTES_PER_SAMPLE - TRACE_BYTES_PER_SAMPLE);
+    let mut probe: Vec<u8> = Vec::new();
+    probe.try_reserve_exact(rest as usize).map_err(|_| Stopped::OutOfMemory { bytes: rest })?;
+    drop(probe);
     let mut tracker = ContactTracker::default();
     let mut tick = s.current();
     for row in 0..rows {
         if row % 4096 == 0 && stop.load(std::sync::atomic::Ordering::Relaxed) {
-            return None;
+            return Err(Stopped::Interrupted);
         }
         if row > 0 {
             tick = s.tick_observed(&mut tracker);
@@ -215,7 +248,7 @@ pub fn run_stoppable(case: &StrikeCase, stop: &std::sync::atomic::AtomicBool) ->
     let end_s = trace.time_s(rows - 1);
     let rebound = s.hammer().map(|h| -h.velocity_m_s);
     let metrics = measure(case, &string, &trace, tracker, end_s, rebound);
-    Some(LabRun { trace, metrics })
+    Ok(LabRun { trace, metrics })
 }
 
 fn measure(
@@ -284,6 +317,13 @@ fn measure(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_trace_the_memory_cannot_hold_is_reported_not_aborted_on() {
+        // (Past what any machine has: the allocator says no, the run says so.)
+        assert_eq!(column(usize::MAX / 16), Err(Stopped::OutOfMemory { bytes: (usize::MAX / 16) as u64 * 8 }));
+        assert_eq!(column(1000).map(|c| c.capacity()), Ok(1000));
+    }
 
     #[test]
     fn merging_joins_only_short_gaps() {

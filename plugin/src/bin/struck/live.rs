@@ -11,8 +11,10 @@
 //! feature) ends a headless run, and the editor closes its window when
 //! `struck::standalone::stop_requested` turns true.
 
-use std::io::Write;
+use std::io::IsTerminal;
 use std::process::ExitCode;
+
+use struck_lab::console;
 
 use struck::StruckPlugin;
 use struck::standalone::{mark_standalone, stop_requested, watch_stop_signals};
@@ -45,19 +47,33 @@ pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
         // reads them as the system gives them); the standalone's options are
         // all text.
         _ if let Some(bad) = raw.iter().skip(1).find(|a| a.to_str().is_none()) => {
-            eprintln!("struck: the argument {:?} is not valid UTF-8", bad.to_string_lossy());
+            console::err(format!("struck: the argument {:?} is not valid UTF-8", bad.to_string_lossy()));
             Some(ExitCode::from(2))
         }
         Some("-h" | "--help") if raw.len() == 2 => {
             let mut cli = cli.clone();
-            let _ = cli.print_long_help();
-            println!("\nWith no command, struck plays live (JACK or ALSA, MIDI in, the panel in a window):\n");
-            let _ = std::io::stdout().flush();
+            let help = cli.render_long_help();
+            // (Styled on a terminal, plain text elsewhere, as clap prints it.)
+            console::out_text(&if std::io::stdout().is_terminal() {
+                help.ansi().to_string()
+            } else {
+                help.to_string()
+            });
+            console::out("\nWith no command, struck plays live (JACK or ALSA, MIDI in, the panel in a window):\n");
+            // The standalone's own options follow (nice-plug prints them and exits),
+            // unless stdout already failed: then that is said, with status 1.
+            if let Some(e) = console::stdout_failure() {
+                console::err(format!("struck: cannot print the help: {e}"));
+                return Some(ExitCode::FAILURE);
+            }
+            if console::stdout_gone() {
+                return Some(ExitCode::SUCCESS);
+            }
             Some(run(args()))
         }
         Some(word) if !word.starts_with('-') => {
             let names: Vec<&str> = cli.get_subcommands().map(|s| s.get_name()).collect();
-            eprintln!("struck: no command {word:?} (the commands: {}; none plays live)", names.join(", "));
+            console::err(format!("struck: no command {word:?} (the commands: {}; none plays live)", names.join(", ")));
             Some(ExitCode::from(2))
         }
         _ => Some(run(args())),
@@ -68,13 +84,13 @@ pub fn run_unless_subcommand(cli: &::clap::Command) -> Option<ExitCode> {
 pub fn run(args: Vec<String>) -> ExitCode {
     let wanted = Wanted::scan(&args[1.min(args.len())..]);
     if let Some(Err(reason)) = wanted.as_ref().map(Wanted::check) {
-        eprintln!("struck: {reason}");
+        console::err(format!("struck: {reason}"));
         return ExitCode::from(2);
     }
     if let Some(wanted) = wanted
         && let Err(reasons) = probe(&wanted)
     {
-        eprintln!("{}", no_device_message(&reasons));
+        console::err(no_device_message(&reasons));
         return ExitCode::FAILURE;
     }
     mark_standalone();
@@ -82,7 +98,7 @@ pub fn run(args: Vec<String>) -> ExitCode {
     if nice_plug::prelude::nice_export_standalone_with_args::<StruckPlugin, _>(args) {
         ExitCode::SUCCESS
     } else {
-        eprintln!("struck: the standalone stopped with an error (see the messages above)");
+        console::err("struck: the standalone stopped with an error (see the messages above)");
         ExitCode::FAILURE
     }
 }
@@ -292,12 +308,15 @@ fn start_stop_watchdog() {
             std::thread::sleep(std::time::Duration::from_millis(50));
         }
         std::thread::sleep(STOP_GRACE);
-        eprintln!("struck: the audio backend did not stop within {} s of the signal; exiting", STOP_GRACE.as_secs());
+        console::err(format!(
+            "struck: the audio backend did not stop within {} s of the signal; exiting",
+            STOP_GRACE.as_secs()
+        ));
         // SAFETY: ends the process at once; nothing is left half-written (the standalone writes no files).
         unsafe { libc::_exit(0) }
     });
     if let Err(e) = spawned {
-        eprintln!("struck: cannot start the stop watchdog: {e}");
+        console::err(format!("struck: cannot start the stop watchdog: {e}"));
     }
 }
 

@@ -7,6 +7,10 @@
 //! code and crates, and the standalone host's launcher, reach only this binary,
 //! never the plugin library the CLAP and VST3 bundles are made of.
 
+// Printing goes through `struck_lab::console`: println! panics when stdout
+// is a closed pipe or a full disk.
+#![warn(clippy::print_stdout, clippy::print_stderr)]
+
 mod live;
 
 use std::process::ExitCode;

@@ -14,6 +14,7 @@ pub mod keyboard;
 pub mod params;
 pub mod performer;
 pub mod standalone;
+pub mod state;
 
 use std::num::NonZeroU32;
 use std::sync::atomic::AtomicBool;
@@ -107,6 +108,15 @@ impl Plugin for StruckPlugin {
 
     fn params(&self) -> Arc<dyn Params> {
         self.params.clone()
+    }
+
+    /// Every value of a state the host loads (a session, a preset) is checked
+    /// before the wrapper applies it: a bad one becomes its default, with a
+    /// line in the log ([`state::repair`]).
+    fn filter_state(state: &mut PluginState) {
+        for line in state::repair(state) {
+            nice_warn!("{line}");
+        }
     }
 
     fn editor(&mut self, _async_executor: AsyncExecutor<Self>) -> Option<Self::Editor> {

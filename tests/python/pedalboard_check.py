@@ -11,14 +11,30 @@ the plugin reports 128 samples of latency at 48 kHz with it on and none with
 it off, and sounds the same samples either way, later by what it reports
 (pedalboard does not make up an instrument's latency).
 
+Then, in a child process logging to a file, the plugin is handed damaged
+states (as a damaged or hand-edited session would): every choice out of
+range, numbers beyond their ranges, values of the wrong type, persisted
+fields that do not read, and states that are truncated, random, empty or not
+JSON at all. It fails unless the host lives through every one, the plugin
+saves its state again, the damaged values are back at their defaults (a
+state refused whole changes nothing), a note still sounds, finite, and each
+repaired value has its line in the plugin's log.
+
 Usage: pedalboard_check.py PATH/TO/Struck.vst3 [--wav OUT.wav]
        pedalboard_check.py --self-test   (the checks on made-up audio)
 (`cargo xtask test` runs it in a venv under target/ with pedalboard pinned.)
 """
 
 import argparse
+import json
+import os
+import random
 import re
+import struct
+import subprocess
 import sys
+import tempfile
+import time
 
 import numpy as np
 import pedalboard
@@ -214,6 +230,37 @@ def self_test():
     assert is_hidden_midi_parameter("MIDI Ch. 3 Channel Pressure")
     assert not is_hidden_midi_parameter("Level")
     assert not is_hidden_midi_parameter("MIDI learn")
+    data = bytes(range(256)) + b"Struck"
+    assert juce_base64_decode(juce_base64_encode(data)) == data
+    assert juce_base64_encode(b"") == "0." and juce_base64_decode("0.") == b""
+    xml = '<?xml version="1.0"?> <VST3PluginState><IComponent>0.</IComponent></VST3PluginState>'
+    assert component_state(with_component_state(xml, data)) == (data, xml.replace("0.", juce_base64_encode(data)))
+    default = {
+        "version": "1",
+        "params": {"inst": {"string": "piano"}, "gain": {"f32": 0.0}, "poly": {"i32": 64}, "mpe": {"bool": False}},
+        "fields": {"scala-scale": "null", "scala-files": '""', "state-version": "1"},
+    }
+    cases = damaged_states(default)
+    assert len({name for name, _, _, _ in cases}) == len(cases)
+    for name, data, ids, refused in cases:
+        assert data != json.dumps(default).encode(), name
+        assert refused or ids, name
+        if not refused:
+            state = json.loads(data)
+            for i in ids:
+                group = "params" if i in default["params"] else "fields"
+                assert state[group][i] != default[group][i], (name, i)
+    one = cases[0]
+    assert one[2] == ["inst"] and json.loads(one[1])["params"]["inst"] == {"i32": 99}
+    assert state_failures("x", default, default, ["inst"], False) == []
+    bad = json.loads(json.dumps(default))
+    bad["params"]["gain"] = {"f32": 3.0}
+    assert state_failures("x", default, bad, ["inst"], False) == []
+    assert any("gain" in f for f in state_failures("x", default, bad, [], True))
+    assert any("gain" in f for f in state_failures("x", default, bad, ["gain"], False))
+    said = ' WARN Struck: the saved "inst" (Instrument): choice 99 is not one of 7; it is set to its default, "piano"'
+    assert log_failures("x", said, ["inst"]) == []
+    assert log_failures("x", said, ["inst", "temp"]) == ["x: no line in the log for temp"]
     print("pedalboard check self-test: passed")
 
 
@@ -229,6 +276,214 @@ def render(plugin):
     return np.asarray(audio), plugin.reported_latency_samples
 
 
+# --- Damaged states -----------------------------------------------------------
+
+# JUCE's VST3 host (pedalboard's) wraps the plugin's state in its own: "VC2!",
+# the XML's length (little-endian u32), the XML, a NUL; the plugin's bytes are
+# the <IComponent> element's text in JUCE's MemoryBlock base64 ("size.chars",
+# six bits a character, least significant first, from this alphabet).
+JUCE_BASE64 = ".ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+"
+ICOMPONENT = re.compile(r"<IComponent>([^<]*)</IComponent>")
+
+
+def juce_base64_decode(text):
+    size, _, chars = text.partition(".")
+    size = int(size)
+    n = 0
+    for i, c in enumerate(chars):
+        n |= JUCE_BASE64.index(c) << (6 * i)
+    return (n & ((1 << (8 * size)) - 1)).to_bytes(size, "little")
+
+
+def juce_base64_encode(data):
+    n = int.from_bytes(data, "little")
+    chars = (len(data) * 8 + 5) // 6
+    return f"{len(data)}." + "".join(JUCE_BASE64[(n >> (6 * i)) & 63] for i in range(chars))
+
+
+def component_state(raw):
+    """The plugin's own state bytes inside pedalboard's raw_state, and the XML around them."""
+    if raw[:4] != b"VC2!":
+        raise ValueError(f"raw_state does not start with VC2! ({raw[:8]!r})")
+    (length,) = struct.unpack("<I", raw[4:8])
+    xml = raw[8 : 8 + length].decode()
+    found = ICOMPONENT.search(xml)
+    if not found:
+        raise ValueError("raw_state has no <IComponent>")
+    return juce_base64_decode(found.group(1)), xml
+
+
+def with_component_state(xml, component):
+    """pedalboard's raw_state holding `component` as the plugin's state."""
+    body = ICOMPONENT.sub(lambda _: f"<IComponent>{juce_base64_encode(component)}</IComponent>", xml).encode()
+    return b"VC2!" + struct.pack("<I", len(body)) + body + b"\0"
+
+
+def param_kinds(state):
+    """Parameter ids by the type their state holds: f32, i32, bool, string (a choice)."""
+    kinds = {}
+    for pid, value in state["params"].items():
+        (kind,) = value.keys()
+        kinds.setdefault(kind, []).append(pid)
+    return kinds
+
+
+def damaged_states(default):
+    """(name, bytes, ids of the parameters and fields it damages, refused whole)
+    for every kind of damage, made from the plugin's default state (a dict)."""
+    kinds = param_kinds(default)
+
+    def damaged(name, params=None, fields=None, text=None):
+        state = json.loads(json.dumps(default))
+        state["params"].update(params or {})
+        state["fields"].update(fields or {})
+        data = (text if text is not None else json.dumps(state)).encode()
+        return (name, data, sorted((params or {}).keys()) + sorted((fields or {}).keys()), False)
+
+    def refused(name, data):
+        return (name, data, [], True)
+
+    def every(kind, value):
+        return {pid: value for pid in kinds.get(kind, [])}
+
+    good = json.dumps(default)
+    rng = random.Random(1234)
+    return [
+        damaged("every choice at index 99", every("string", {"i32": 99})),
+        damaged("every choice at index -1", every("string", {"i32": -1})),
+        damaged("every choice an unknown id", every("string", {"string": "organ"})),
+        damaged(
+            "every number far above its range",
+            {**every("f32", {"f32": 3e38}), **every("i32", {"i32": 2**31 - 1})},
+        ),
+        damaged(
+            "every number below its range",
+            {**every("f32", {"f32": -1e30}), **every("i32", {"i32": -(2**31)})},
+        ),
+        damaged(
+            "every value of the wrong type",
+            {
+                **every("f32", {"string": "loud"}),
+                **every("i32", {"f32": 1.5}),
+                **every("bool", {"i32": 1}),
+                **every("string", {"bool": True}),
+            },
+        ),
+        damaged(
+            "persisted fields of the wrong type",
+            fields={"scala-scale": "42", "scala-files": "[1, 2]", "state-version": '"one"'},
+        ),
+        damaged("a Scala scale that cannot play", fields={"scala-scale": '{"degrees_cents": [700.0, -5.0]}'}),
+        damaged("a persisted field that is not JSON", fields={"scala-scale": '{"degrees_cents": [12'}),
+        refused("a number no f32 holds (1e300)", good.replace('"f32": 0.0', '"f32": 1e300', 1).encode()),
+        refused(
+            "NaN and Infinity",
+            good.replace('"f32": 1.0', '"f32": NaN', 1).replace('"f32": 0.0', '"f32": Infinity').encode(),
+        ),
+        refused("a value that is not tagged", good.replace('{"f32": 0.0}', '"loud"', 1).encode()),
+        refused("the state cut in half", good.encode()[: len(good) // 2]),
+        refused("random bytes", bytes(rng.randrange(256) for _ in range(600))),
+        refused("an empty state", b""),
+        refused("JSON that is not a state", b"[1, 2, 3]"),
+    ]
+
+
+# How long the plugin's log may take to reach its file, s.
+LOG_WAIT_S = 10.0
+
+
+def short_render(plugin):
+    """Half a second with C4 struck at 0.05 s, through the plugin as it
+    stands (pedalboard's reset between renders takes seconds: not done)."""
+    audio = plugin(
+        [(bytes([0x90, 60, 100]), 0.05), (bytes([0x80, 60, 0]), 0.4)],
+        duration=0.5,
+        sample_rate=SAMPLE_RATE_HZ,
+        num_channels=2,
+        buffer_size=BLOCK_SIZE,
+        reset=False,
+    )
+    return np.asarray(audio)
+
+
+def state_failures(name, default, saved, damaged_ids, refused):
+    """Failures of the state saved after a damaged one was loaded: every value
+    it damaged (all of them, when refused whole) must be back at its default."""
+    failures = []
+    for pid in damaged_ids if not refused else default["params"]:
+        group = "params" if pid in default["params"] else "fields"
+        got = saved.get(group, {}).get(pid)
+        if got != default[group][pid]:
+            failures.append(f"{name}: {pid} is {got!r} after loading it, not its default {default[group][pid]!r}")
+    return failures
+
+
+def log_failures(name, said, damaged_ids):
+    """Failures of what the plugin logged loading a damaged state: a line for
+    each value it damaged, naming it and its default."""
+    lines = [line for line in said.splitlines() if "Struck: the saved" in line]
+    return [
+        f"{name}: no line in the log for {pid}"
+        for pid in damaged_ids
+        if not any(f'"{pid}"' in line and "set to its default" in line for line in lines)
+    ]
+
+
+def fuzz_state(path):
+    """Load every damaged state into the plugin; return the failures.
+    Run in its own process with NICE_LOG naming a file (the plugin's log)."""
+    log = os.environ.get("NICE_LOG", "")
+    if not log or log in ("stderr", "windbg"):
+        return ["--fuzz-state needs NICE_LOG set to a file"]
+    plugin = pedalboard.load_plugin(path)
+    pristine = plugin.raw_state
+    component, xml = component_state(pristine)
+    default = json.loads(component)
+    failures = []
+    for name, data, damaged_ids, refused in damaged_states(default):
+        print(f"state: {name} ({len(data)} bytes)", flush=True)
+        plugin.raw_state = pristine
+        seen = os.path.getsize(log) if os.path.exists(log) else 0
+        plugin.raw_state = with_component_state(xml, data)
+        # Saving is where an enum out of range panicked and took the host down.
+        saved = json.loads(component_state(plugin.raw_state)[0])
+        failures += state_failures(name, default, saved, damaged_ids, refused)
+        audio = short_render(plugin)
+        if not np.isfinite(audio).all():
+            failures.append(f"{name}: the note after it is not finite")
+        else:
+            peak = float(np.max(np.abs(audio)))
+            if not AUDIBLE_PEAK < peak < BLOWN_UP_PEAK:
+                failures.append(f"{name}: the note after it peaks at {peak:.3g}")
+        # (The log reaches its file from a thread of its own: give it time.)
+        deadline = time.monotonic() + LOG_WAIT_S
+        while True:
+            with open(log, encoding="utf-8", errors="replace") as f:
+                f.seek(seen)
+                said = f.read()
+            if not log_failures(name, said, damaged_ids) or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        failures += log_failures(name, said, damaged_ids)
+        for line in said.splitlines():
+            if "Struck: the saved" in line:
+                print(f"  logged: {line.strip()}")
+    return failures
+
+
+def fuzz_state_in_child(path):
+    """fuzz_state in a child process logging to a file: its failures, and
+    one when the child (the host) died."""
+    with tempfile.TemporaryDirectory() as scratch:
+        env = dict(os.environ, NICE_LOG=os.path.join(scratch, "plugin.log"))
+        child = subprocess.run([sys.executable, os.path.abspath(__file__), path, "--fuzz-state"], env=env)
+    if child.returncode == 0:
+        return []
+    if child.returncode == 1:
+        return ["damaged states: see the failures above"]
+    return [f"the host died loading a damaged state (exit status {child.returncode}; the last state listed above)"]
+
+
 def level_db(x):
     return 20.0 * np.log10(max(float(x), 1e-12))
 
@@ -238,12 +493,21 @@ def main(argv):
     parser.add_argument("plugin", nargs="?", help="the .vst3 bundle")
     parser.add_argument("--self-test", action="store_true", help="only check the checks, on made-up audio")
     parser.add_argument("--wav", help="also write the render to this WAV file")
+    parser.add_argument(
+        "--fuzz-state", action="store_true", help="only load damaged states (NICE_LOG must name the log file)"
+    )
     args = parser.parse_args(argv)
     if args.self_test:
         self_test()
         return 0
     if not args.plugin:
         parser.error("the .vst3 bundle is required")
+    if args.fuzz_state:
+        failures = fuzz_state(args.plugin)
+        for failure in failures:
+            print(f"FAILED: {failure}", file=sys.stderr)
+        print("damaged states: " + ("passed" if not failures else f"{len(failures)} failure(s)"), flush=True)
+        return 1 if failures else 0
 
     failures = []
     plugin = pedalboard.load_plugin(args.plugin)
@@ -288,6 +552,8 @@ def main(argv):
         failures += latency_failures(audio, plain, reported_smoothed, reported_plain)
 
     sys.stdout.flush()
+    failures += fuzz_state_in_child(args.plugin)
+
     for failure in failures:
         print(f"FAILED: {failure}", file=sys.stderr)
     sys.stderr.flush()

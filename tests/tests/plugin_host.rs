@@ -711,6 +711,254 @@ fn a_burst_of_thousands_of_events_in_one_block_child() {
     assert!(rms(&run.left[BLOCK..]) > 1e-4, "the note sounds through the burst");
 }
 
+/// The plugin's state as CLAP hosts keep it from nice-plug: the JSON's
+/// length (little-endian u64), then the JSON.
+fn clap_state(json: &[u8]) -> Vec<u8> {
+    let mut bytes = (json.len() as u64).to_le_bytes().to_vec();
+    bytes.extend_from_slice(json);
+    bytes
+}
+
+/// The state `instance` saves, as JSON (the length in front checked).
+fn saved_state(instance: &mut PluginInstance<TestHost>) -> serde_json::Value {
+    let mut bytes = Vec::new();
+    let handle = instance.plugin_handle();
+    let state: PluginState = handle.get_extension().expect("state extension");
+    state.save(&handle, &mut bytes).expect("save state");
+    let (length, json) = bytes.split_at(8);
+    assert_eq!(u64::from_le_bytes(length.try_into().unwrap()) as usize, json.len());
+    serde_json::from_slice(json).expect("the saved state is JSON")
+}
+
+/// A damaged state: its name, its bytes, what it damages (parameter ids and
+/// persisted fields), and whether the wrapper refuses it whole (it is not a
+/// state at all, so nothing changes).
+struct Damaged {
+    name: &'static str,
+    bytes: Vec<u8>,
+    damages: Vec<String>,
+    refused: bool,
+}
+
+/// Every kind of damage, made from the plugin's default state: every choice,
+/// number or switch out of its range or of the wrong type, persisted fields
+/// that do not read, and states that are not states at all.
+fn damaged_states(default: &serde_json::Value) -> Vec<Damaged> {
+    use serde_json::json;
+    let params = default["params"].as_object().expect("params");
+    // Parameter ids by the type the state holds them as: f32, i32, bool, string (a choice).
+    let of = |kind: &str| -> Vec<String> {
+        params.iter().filter(|(_, v)| v.get(kind).is_some()).map(|(id, _)| id.clone()).collect()
+    };
+    let every = |kinds: &[(&str, serde_json::Value)]| -> Vec<(String, serde_json::Value)> {
+        kinds.iter().flat_map(|(kind, value)| of(kind).into_iter().map(move |id| (id, value.clone()))).collect()
+    };
+    let damaged = |name: &'static str, values: Vec<(String, serde_json::Value)>, fields: &[(&str, &str)]| {
+        let mut state = default.clone();
+        let mut damages = Vec::new();
+        for (id, value) in values {
+            state["params"][&id] = value;
+            damages.push(id);
+        }
+        for (key, data) in fields {
+            state["fields"][*key] = json!(data);
+            damages.push(key.to_string());
+        }
+        Damaged { name, bytes: clap_state(&serde_json::to_vec(&state).unwrap()), damages, refused: false }
+    };
+    let refused = |name: &'static str, bytes: Vec<u8>| Damaged { name, bytes, damages: Vec::new(), refused: true };
+    let good = serde_json::to_string(default).unwrap();
+    let mut rng = Rng::new(0x5eed_0fda_3a6e);
+    let random: Vec<u8> = (0..600).map(|_| rng.below(256) as u8).collect();
+    vec![
+        damaged("every choice at index 99", every(&[("string", json!({"i32": 99}))]), &[]),
+        damaged("every choice at index -1", every(&[("string", json!({"i32": -1}))]), &[]),
+        damaged("every choice an unknown id", every(&[("string", json!({"string": "organ"}))]), &[]),
+        damaged(
+            "every number far above its range",
+            every(&[("f32", json!({"f32": 3e38})), ("i32", json!({"i32": i32::MAX}))]),
+            &[],
+        ),
+        damaged(
+            "every number below its range",
+            every(&[("f32", json!({"f32": -1e30})), ("i32", json!({"i32": i32::MIN}))]),
+            &[],
+        ),
+        damaged(
+            "every value of the wrong type",
+            every(&[
+                ("f32", json!({"string": "loud"})),
+                ("i32", json!({"f32": 1.5})),
+                ("bool", json!({"i32": 1})),
+                ("string", json!({"bool": true})),
+            ]),
+            &[],
+        ),
+        damaged(
+            "persisted fields of the wrong type",
+            Vec::new(),
+            &[("scala-scale", "42"), ("scala-files", "[1, 2]"), ("state-version", "\"one\"")],
+        ),
+        damaged(
+            "a Scala scale that cannot play",
+            Vec::new(),
+            &[("scala-scale", r#"{"degrees_cents": [700.0, -5.0]}"#)],
+        ),
+        damaged("a persisted field that is not JSON", Vec::new(), &[("scala-scale", r#"{"degrees_cents": [12"#)]),
+        refused(
+            "a number no f32 holds (1e300)",
+            clap_state(good.replacen(r#"{"f32":0.0}"#, r#"{"f32":1e300}"#, 1).as_bytes()),
+        ),
+        refused("NaN", clap_state(good.replacen(r#"{"f32":1.0}"#, r#"{"f32":NaN}"#, 1).as_bytes())),
+        refused("a value that is not tagged", clap_state(good.replacen(r#"{"f32":0.0}"#, r#""loud""#, 1).as_bytes())),
+        refused("the state cut in half", clap_state(good.as_bytes())[..good.len() / 2].to_vec()),
+        refused("the length says more than there is", {
+            let mut bytes = clap_state(good.as_bytes());
+            bytes.truncate(8 + good.len() / 2);
+            bytes
+        }),
+        refused("random bytes", random.clone()),
+        refused("random bytes after a true length", clap_state(&random)),
+        refused("an empty state", Vec::new()),
+        refused("a length and nothing after it", clap_state(b"")),
+        refused("JSON that is not a state", clap_state(b"[1, 2, 3]")),
+    ]
+}
+
+/// Damaged states loaded through CLAP's state extension (what a DAW does
+/// reopening a damaged or hand-edited session): the host lives through every
+/// one, the plugin saves its state again, the values each damaged are back at
+/// their defaults (a state refused whole changes nothing), a note still
+/// sounds, finite, and the plugin's log has a line for each value it set back.
+/// Played in a child process logging to a file.
+#[test]
+fn damaged_states_fall_back_to_defaults_and_the_host_lives() {
+    let Some(_) = bundle() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("plugin.log");
+    let here = "damaged_states_child";
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", here, "--ignored", "--nocapture", "--test-threads=1"])
+        .env("NICE_LOG", &log)
+        .output()
+        .unwrap();
+    let said = std::fs::read_to_string(&log).unwrap_or_default();
+    let shown = format!("{}\n{}\n{said}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "the host (the child) failed or died ({}):\n{shown}", out.status);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 passed"), "the child did not run:\n{shown}");
+}
+
+#[test]
+#[ignore = "run by damaged_states_fall_back_to_defaults_and_the_host_lives"]
+fn damaged_states_child() {
+    let Some(path) = bundle() else { return };
+    let log = PathBuf::from(std::env::var_os("NICE_LOG").expect("NICE_LOG names the log file"));
+    let loaded = Loaded::new(&path);
+    let mut fresh = loaded.instance();
+    let ids = param_ids(&mut fresh);
+    let defaults = values(&mut fresh, &ids);
+    let default = saved_state(&mut fresh);
+    let cases = damaged_states(&default);
+    assert!(cases.iter().filter(|c| !c.refused).map(|c| c.damages.len()).sum::<usize>() > 100);
+    let pristine = clap_state(&serde_json::to_vec(&default).unwrap());
+    for case in cases {
+        assert_ne!(case.bytes, pristine, "{}: not damaged", case.name);
+        eprintln!("state: {} ({} bytes)", case.name, case.bytes.len());
+        let seen = std::fs::metadata(&log).map_or(0, |m| m.len() as usize);
+        let mut instance = loaded.instance();
+        let loaded_ok = {
+            let handle = instance.plugin_handle();
+            let state: PluginState = handle.get_extension().unwrap();
+            state.load(&handle, &mut case.bytes.as_slice()).is_ok()
+        };
+        service_main_thread(&mut instance);
+        assert_eq!(loaded_ok, !case.refused, "{}: loaded {loaded_ok}", case.name);
+        // Saving is where a choice out of range panicked, taking the host down.
+        let saved = saved_state(&mut instance);
+        let checked: Vec<&String> = if case.refused {
+            default["params"].as_object().unwrap().keys().chain(default["fields"].as_object().unwrap().keys()).collect()
+        } else {
+            case.damages.iter().collect()
+        };
+        for id in checked {
+            let group = if default["params"].get(id).is_some() { "params" } else { "fields" };
+            assert_eq!(saved[group][id], default[group][id], "{}: {id} is not back at its default", case.name);
+        }
+        if case.refused {
+            assert_eq!(values(&mut instance, &ids), defaults, "{}: the values moved", case.name);
+        }
+        let mut note = EventBuffer::new();
+        note.push(&note_on(0, 60, 1, 0.8));
+        let run = process(&mut instance, &vec![BLOCK; (0.3 * FS) as usize / BLOCK], &vec![(1, note)], Duration::ZERO);
+        let all: Vec<f32> = run.left.iter().chain(&run.right).copied().collect();
+        assert!(all.iter().all(|s| s.is_finite()), "{}: non-finite samples", case.name);
+        let peak = all.iter().fold(0.0f32, |m, s| m.max(s.abs()));
+        assert!(peak > 1e-3 && peak < 10.0, "{}: the note peaks at {peak}", case.name);
+        // The log reaches its file from a thread of its own: it is given ten seconds.
+        let logged = |said: &str, id: &str| {
+            said.lines().any(|l| {
+                l.contains("Struck: the saved") && l.contains(&format!("\"{id}\"")) && l.contains("set to its default")
+            })
+        };
+        let deadline = std::time::Instant::now() + Duration::from_secs(10);
+        let said = loop {
+            let said = std::fs::read(&log).map(|b| String::from_utf8_lossy(&b[seen.min(b.len())..]).into_owned());
+            let said = said.unwrap_or_default();
+            if case.damages.iter().all(|id| logged(&said, id)) || std::time::Instant::now() > deadline {
+                break said;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        for id in &case.damages {
+            assert!(logged(&said, id), "{}: no line in the log for {id}:\n{said}", case.name);
+        }
+        let lines: Vec<&str> = said.lines().filter(|l| l.contains("Struck: the saved")).collect();
+        assert_eq!(lines.len(), case.damages.len(), "{}: {lines:#?}", case.name);
+    }
+}
+
+/// Values from the host out of every parameter's range, not numbers at all or
+/// far beyond (CLAP gives plain values): the plugin holds each parameter
+/// within its range and plays on, finite.
+#[test]
+fn host_values_out_of_range_are_held_within_each_parameters_range() {
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    let ids = param_ids(&mut instance);
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300, 99.0, -1.0] {
+        let mut changes = EventBuffer::new();
+        for (_, id, max) in &ids {
+            let value = if bad.is_finite() && bad.abs() < 100.0 { bad * max.max(1.0) } else { bad };
+            changes.push(&ParamValueEvent::new(0, *id, Pckn::match_all(), value));
+        }
+        {
+            let mut handle = instance.inactive_plugin_handle().expect("inactive");
+            let params: PluginParams = handle.get_extension().unwrap();
+            params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
+        }
+        let mut block = EventBuffer::new();
+        block.push(&note_on(0, 60, 1, 0.8));
+        let run = process(&mut instance, &vec![BLOCK; (0.2 * FS) as usize / BLOCK], &vec![(1, block)], Duration::ZERO);
+        assert!(run.left.iter().chain(&run.right).all(|s| s.is_finite()), "{bad}: non-finite samples");
+        let handle = instance.plugin_handle();
+        let params: PluginParams = handle.get_extension().unwrap();
+        let mut buffer = ParamInfoBuffer::new();
+        for i in 0..params.count(&handle) {
+            let info = params.get_info(&handle, i, &mut buffer).unwrap();
+            let value = params.get_value(&handle, info.id).unwrap();
+            let name = String::from_utf8_lossy(info.name);
+            assert!(
+                value.is_finite() && (info.min_value..=info.max_value).contains(&value),
+                "{bad}: {name} is {value}, outside {}..={}",
+                info.min_value,
+                info.max_value
+            );
+        }
+        let _ = saved_state(&mut instance);
+    }
+}
+
 // The standalone: `struck` with no subcommand.
 
 /// Whether this machine has no ALSA sound card.

@@ -87,7 +87,7 @@ pub fn steps(options: &TestOptions) -> Vec<Step<'_>> {
         ),
         Step::new(
             "pedalboard",
-            "load the VST3 in pedalboard, render notes, check the sound and the parameters",
+            "load the VST3 in pedalboard, render notes, check the sound and the parameters, load damaged states",
             pedalboard,
         ),
         Step::new("panel", "open the standalone's panel under Xvfb and check a screenshot of it", move || {

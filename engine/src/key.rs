@@ -594,6 +594,16 @@ impl Key {
         self.heard_per_n().powi(2) * self.strings.iter().map(|s| s.bank().phasor_energy_j()).sum::<f64>()
     }
 
+    /// Its strings' first mode made not a number: what a blow-up would leave
+    /// (for checks of the output's guard).
+    #[cfg(test)]
+    pub fn poison(&mut self) {
+        self.settle();
+        for s in &mut self.strings {
+            s.bank_mut().set_phasor(0, Complex64::new(f64::NAN, 0.0));
+        }
+    }
+
     /// Whether it is sounding: struck, and neither silent yet nor faded out.
     pub fn is_sounding(&self) -> bool {
         self.active

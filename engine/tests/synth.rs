@@ -1103,3 +1103,52 @@ fn a_clavichord_key_let_go_leaves_its_strings_no_faster_than_they_can_throw_its_
     assert!(middling.0 < 3.0 && hard.0 < 3.0, "{middling:?} {hard:?}");
     assert!(soft.1 < middling.1 - 3.0, "{soft:?} against {middling:?}");
 }
+
+/// The output's guard ([`struck_engine::synth::guard`]): the largest sample
+/// of a render heard through the microphones, as the plugin plays.
+fn flood_peak(events: &[(f64, Event)], seconds: f64) -> (f32, struck_engine::synth::GuardReport) {
+    let settings = struck_engine::synth::default_settings(InstrumentKind::Piano, FS);
+    let mut synth = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+    let (left, right) = render_stereo(&mut synth, seconds, events, 512);
+    assert!(left.iter().chain(&right).all(|v| v.is_finite()), "a sample is not finite");
+    (left.iter().chain(&right).fold(0.0f32, |m, v| m.max(v.abs())), synth.guard())
+}
+
+/// +6 dBFS, the guard's ceiling.
+const CEILING: f32 = 1.995_262_4;
+
+#[test]
+fn a_flood_of_notes_is_held_under_the_ceiling() {
+    // A hundred thousand notes in a second, every key in turn at every
+    // velocity (a MIDI feedback loop): +30 dBFS before the guard.
+    let events: Vec<(f64, Event)> = (0..100_000)
+        .map(|i| (i as f64 * 1e-5, Event::NoteOn { key: 21 + (i % 88) as u8, velocity: (1 + i % 127) as f32 / 127.0 }))
+        .collect();
+    let (peak, report) = flood_peak(&events, 1.5);
+    assert!(peak <= CEILING, "peak {peak}");
+    assert!(report.held_samples > 0 && report.deepest_db < -6.0, "{report:?}");
+    assert_eq!(report.silenced, 0, "{report:?}");
+}
+
+#[test]
+fn a_key_struck_a_thousand_times_is_held_under_the_ceiling() {
+    // C4 struck a thousand times in a second at full velocity, never let
+    // up (a runaway arpeggiator): +14.5 dBFS before the guard.
+    let events: Vec<(f64, Event)> =
+        (0..1000).map(|i| (i as f64 * 1e-3, Event::NoteOn { key: 60, velocity: 1.0 })).collect();
+    let (peak, report) = flood_peak(&events, 1.5);
+    assert!(peak <= CEILING, "peak {peak}");
+    assert!(report.held_samples > 0, "{report:?}");
+}
+
+#[test]
+fn ordinary_playing_never_meets_the_guard() {
+    // Both hands' chord fortissimo with the pedal down, then a forte run
+    // over it: the guard changes nothing. (Nine keys at the top velocity
+    // with the pedal down reach +6.7 dBFS, where it holds them by 0.7 dB.)
+    let mut events = vec![(0.0, Event::Sustain(1.0))];
+    events.extend([36u8, 43, 48, 64, 67, 72, 76].map(|key| (0.01, Event::NoteOn { key, velocity: 1.0 })));
+    events.extend((0..40u8).map(|i| (0.5 + 0.05 * i as f64, Event::NoteOn { key: 40 + i, velocity: 0.8 })));
+    let (peak, report) = flood_peak(&events, 3.0);
+    assert!(!report.acted(), "{report:?}, peak {peak}");
+}

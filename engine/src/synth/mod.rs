@@ -15,6 +15,7 @@
 
 mod body_voicing;
 mod event;
+pub mod guard;
 mod paced;
 pub mod scope;
 mod sympathy;
@@ -25,6 +26,7 @@ mod workshop;
 use serde::{Deserialize, Serialize};
 
 pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, TimedEvent, cc};
+pub use guard::{GuardReport, Silenced};
 pub use paced::{Ahead, MAX_PACED_LATENCY, PACED_BUDGET, PACED_LATENCY_S, Paced};
 pub use scope::{Scope, ScopeFrame};
 pub use workshop::{Delivery, Workshop};
@@ -1010,6 +1012,30 @@ impl Synth {
         2f64.powf(self.wheel * self.controls.bend_range_semitones / 12.0)
     }
 
+    /// What the output's guard has done so far ([`guard`]): read it off the
+    /// audio thread, or after a render, to say so.
+    pub fn guard(&self) -> GuardReport {
+        self.outlet.guard.report()
+    }
+
+    /// Every string and body at rest at once (their state is lost: the
+    /// guard found a sample that is not a number, or no music), the DC
+    /// blocks too; the pedals stay where the player has them.
+    /// (`time`: the control block's, where the keys that sounded end.)
+    fn silence_all(&mut self, time: u32) {
+        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
+            for key in instrument.keys.iter_mut().flatten() {
+                if key.is_sounding() && self.ended.len() < self.ended.capacity() {
+                    self.ended.push(KeyEnded { time, key: key.midi_key() });
+                }
+                key.silence();
+            }
+            instrument.soundboard.silence();
+            instrument.sympathy.drop_held();
+        }
+        self.outlet.dc = [DcBlock::default(); 2];
+    }
+
     /// Keys sounding now (the outgoing instrument's included).
     pub fn active_keys(&self) -> usize {
         self.current.active_keys().count() + self.outgoing.as_ref().map_or(0, |o| o.active_keys().count())
@@ -1363,6 +1389,9 @@ impl Synth {
     }
 
     fn control(&mut self, time: u32) {
+        if self.outlet.guard.take_trip() {
+            self.silence_all(time);
+        }
         self.control_before_keys();
         let (tick, phase) = (self.key_tick(), self.trade_phase());
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
@@ -1591,6 +1620,8 @@ struct Outlet {
     dc_r: f64,
     /// Per-sample step of the output gain's glide toward its control (about 10 ms, so automation does not click).
     glide: f64,
+    /// The last line: nothing non-finite or over +6 dBFS leaves.
+    guard: guard::Guard,
 }
 
 impl Outlet {
@@ -1601,6 +1632,7 @@ impl Outlet {
             dc: [DcBlock::default(); 2],
             dc_r: 0.0,
             glide: 0.0,
+            guard: guard::Guard::new(sample_rate_hz),
         };
         outlet.set_rate(sample_rate_hz);
         outlet
@@ -1609,6 +1641,7 @@ impl Outlet {
     fn set_rate(&mut self, sample_rate_hz: f64) {
         self.dc_r = (-2.0 * std::f64::consts::PI * DC_BLOCK_HZ / sample_rate_hz).exp();
         self.glide = glide_step(sample_rate_hz);
+        self.guard.set_rate(sample_rate_hz);
     }
 
     /// The mix's first `left.len()` samples through the DC block and the
@@ -1624,8 +1657,8 @@ impl Outlet {
             // toward silence for ever, the gain would make subnormal samples (and
             // become an f64 subnormal itself).
             self.gain = if (to - self.gain).abs() < 1e-9 { to } else { self.gain + (to - self.gain) * glide };
-            let l = self.dc[0].run(mix_l[t], r) * self.gain;
-            let rr = self.dc[1].run(mix_r[t], r) * self.gain;
+            let (l, rr) =
+                self.guard.run(self.dc[0].run(mix_l[t], r) * self.gain, self.dc[1].run(mix_r[t], r) * self.gain);
             left[t] = T::from_f64(l);
             right[t] = T::from_f64(rr);
             heard[t] = 0.5 * (l + rr) as f32;

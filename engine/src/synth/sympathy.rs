@@ -516,7 +516,7 @@ impl Sympathy {
         }
     }
 
-    fn drop_held(&mut self) {
+    pub(crate) fn drop_held(&mut self) {
         for &i in &self.holding {
             self.held[i as usize] = Complex64::new(0.0, 0.0);
         }

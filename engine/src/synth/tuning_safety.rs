@@ -260,3 +260,25 @@ fn a_microtonal_scale_plays_at_the_level_of_equal_temperament() {
         }
     }
 }
+
+#[test]
+fn a_lost_state_is_silenced_and_the_instrument_plays_on() {
+    // A string's state made not a number (what a blow-up would leave): the
+    // output drops to silence, never to a NaN, the instrument is silenced,
+    // and the next note plays.
+    let (mut synth, _) = Synth::new(Box::new(Instrument::build(&tuned(InstrumentKind::Piano, None)).unwrap()));
+    let (mut left, mut right) = (vec![0.0f32; 4800], vec![0.0f32; 4800]);
+    synth.process(&[TimedEvent::new(0, Event::NoteOn { key: 60, velocity: 0.8 })], &mut left, &mut right);
+    let key = synth.current.keys[60].as_mut().unwrap();
+    key.settle();
+    key.poison();
+    synth.process(&[], &mut left, &mut right);
+    assert!(left.iter().chain(&right).all(|v| v.is_finite()));
+    let report = synth.guard();
+    assert_eq!((report.silenced, report.last_reason), (1, Some(crate::synth::Silenced::NotANumber)));
+    assert!(!synth.is_sounding(), "silenced");
+    synth.process(&[TimedEvent::new(0, Event::NoteOn { key: 64, velocity: 0.8 })], &mut left, &mut right);
+    synth.process(&[], &mut left, &mut right);
+    let level = left.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!(level.is_finite() && level > 1e-3, "E4 plays: {level}");
+}

@@ -313,6 +313,81 @@ fn c4_song(scratch: &Scratch) -> PathBuf {
 
 const C4_EQUAL_HZ: f64 = 261.625_565;
 
+/// The peak of a WAV's samples, dBFS.
+fn peak_dbfs(wav: &Wav) -> f64 {
+    20.0 * wav.left.iter().chain(&wav.right).fold(0.0f64, |m, v| m.max(f64::from(v.abs()))).log10()
+}
+
+/// A staccato C4 at velocity 100 in a Bohlen-Pierce scale (13 steps to the
+/// twelfth) peaked at +263.5 dBFS, and the keyboard swept in it or in 5 equal
+/// steps to the octave went non-finite: each now renders finite, exit 0,
+/// within a few dB of its equal-tempered render.
+#[test]
+fn a_scale_with_steps_wider_than_a_semitone_renders_at_the_keyboards_level() {
+    let scratch = Scratch::new();
+    let bp = scratch.path("bp.scl");
+    let mut text = String::from("! bp.scl\nBohlen-Pierce\n13\n!\n");
+    for i in 1..13 {
+        text += &format!("{:.4}\n", 1901.955 * i as f64 / 13.0);
+    }
+    std::fs::write(&bp, text + "3/1\n").unwrap();
+    let five = scratch.path("five.scl");
+    std::fs::write(&five, "! five.scl\n5 equal\n5\n!\n240.\n480.\n720.\n960.\n2/1\n").unwrap();
+    let c4 = c4_song(&scratch);
+    let mut sweep = midi_gen::TrackBuilder::new();
+    sweep.tempo(0, 120.0);
+    for (i, key) in (21..=108u8).enumerate() {
+        sweep.note(midi_gen::at_120(0.1 * i as f64), midi_gen::at_120(0.08), key, 100);
+    }
+    let swept = scratch.path("sweep.mid");
+    std::fs::write(&swept, midi_gen::smf_bytes(midly::Format::SingleTrack, midi_gen::metrical(), &[sweep])).unwrap();
+    for song in [&c4, &swept] {
+        let equal = peak_dbfs(&scratch.wav(song, &["--tail-s", "2"]));
+        for scale in [&bp, &five] {
+            let out = scratch.render(song, &["--tail-s", "2", "--scl", path_str(scale)]);
+            assert!(out.status.success(), "{}", stderr(&out));
+            assert!(!stderr(&out).contains("guard"), "{}", stderr(&out));
+            let wav = Wav::read(&scratch.out());
+            assert!(wav.left.iter().chain(&wav.right).all(|v| v.is_finite()));
+            let peak = peak_dbfs(&wav);
+            assert!(
+                (peak - equal).abs() < 6.0,
+                "{}: peak {peak:.1} dBFS, {equal:.1} in equal temperament",
+                path_str(scale)
+            );
+        }
+    }
+}
+
+/// A hundred thousand notes in a second (a MIDI feedback loop) rendered at
+/// +30.3 dBFS, and C4 struck a thousand times at +14.5: the output's guard
+/// holds them at +6 dBFS and the render says so on stderr, exit 0.
+#[test]
+fn a_flood_of_notes_is_held_at_the_ceiling_and_said() {
+    let scratch = Scratch::new();
+    let mut flood = midi_gen::TrackBuilder::new();
+    flood.tempo(0, 120.0);
+    for i in 0..20_000u64 {
+        flood.note_on(i * midi_gen::at_120(1.0) / 20_000, 0, 21 + (i % 88) as u8, 1 + (i % 127) as u8);
+    }
+    let mut same = midi_gen::TrackBuilder::new();
+    same.tempo(0, 120.0);
+    for i in 0..1000u64 {
+        same.note_on(i * midi_gen::at_120(1.0) / 1000, 0, 60, 127);
+    }
+    for (name, track) in [("flood.mid", flood), ("same.mid", same)] {
+        let song = scratch.path(name);
+        std::fs::write(&song, midi_gen::smf_bytes(midly::Format::SingleTrack, midi_gen::metrical(), &[track])).unwrap();
+        let out = scratch.render(&song, &["--tail-s", "1"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let said = stderr(&out);
+        assert!(said.contains("the output guard held the output under +6 dBFS"), "{name}: {said}");
+        assert_eq!(said.lines().count(), 1, "{said}");
+        let wav = Wav::read(&scratch.out());
+        assert!(peak_dbfs(&wav) <= 6.0 + 1e-4, "{name}: peak {:.2} dBFS", peak_dbfs(&wav));
+    }
+}
+
 /// A harpsichord preset in quarter-comma meantone from C (A4 at 440 Hz): C4 sits
 /// 10.26 cents above its equal-tempered pitch, and the summary says so. The flags
 /// override the preset's tuning: --temperament equal puts C4 back.

@@ -284,6 +284,11 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
     }
     written?;
     staged.commit()?;
+    // The output's guard is a last line: say so whenever it was reached.
+    let guard = synth.guard();
+    if guard.acted() {
+        console::err(format!("struck render: {}; lower the velocities or controls.output_gain", guard.describe(fs_hz)));
+    }
 
     if !args.quiet {
         let wall_s = started.elapsed().as_secs_f64();

@@ -22,7 +22,7 @@ use std::sync::{Arc, Mutex};
 
 use nice_plug::prelude::*;
 use nice_plug_egui::{EguiEditor, EguiEditorState};
-use struck_engine::synth::{Instrument, Synth, Workshop};
+use struck_engine::synth::{GuardReport, Instrument, Synth, Workshop};
 
 use crate::editor::{ScopeFeed, SharedScope, StruckEditor};
 use crate::keyboard::KeyboardLink;
@@ -58,6 +58,16 @@ pub struct StruckPlugin {
     building: Arc<AtomicBool>,
     /// The panel's keyboard and what it shows of the keys and pedals.
     keyboard: Arc<KeyboardLink>,
+    /// What the output's guard had done when the log was last told, and the
+    /// samples since (it is told at most once a second).
+    guard_told: GuardReport,
+    since_told: u64,
+}
+
+/// Work the audio thread hands to a background thread.
+pub enum Task {
+    /// Log what the output's guard has done (at this sample rate).
+    Guard(GuardReport, f64),
 }
 
 impl Default for StruckPlugin {
@@ -75,6 +85,8 @@ impl Default for StruckPlugin {
             built: None,
             building: Arc::new(AtomicBool::new(false)),
             keyboard: Arc::new(KeyboardLink::default()),
+            guard_told: GuardReport::default(),
+            since_told: u64::MAX,
         }
     }
 }
@@ -104,7 +116,16 @@ impl Plugin for StruckPlugin {
 
     type Editor = EguiEditor<StruckEditor>;
     type SysExMessage = ();
-    type BackgroundTask = ();
+    type BackgroundTask = Task;
+
+    /// The guard's reports become log lines here, off the audio thread.
+    fn task_executor(&mut self) -> TaskExecutor<Self> {
+        Box::new(|task| match task {
+            Task::Guard(report, sample_rate_hz) => {
+                nice_warn!("Struck: {}; lower the velocities or the Level", report.describe(sample_rate_hz))
+            }
+        })
+    }
 
     fn params(&self) -> Arc<dyn Params> {
         self.params.clone()
@@ -237,6 +258,14 @@ impl Plugin for StruckPlugin {
         }
         let mut host = HostEvents { context, report_ends };
         let sounding = performer.process(controls, &mut host, left, right);
+        // What the output's guard did goes to the log (a task handed over
+        // without allocating), once a second at most.
+        let guard = performer.synth().guard();
+        self.since_told = self.since_told.saturating_add(samples as u64);
+        if guard != self.guard_told && self.since_told >= self.sample_rate_hz as u64 {
+            host.context.execute_background(Task::Guard(guard, self.sample_rate_hz));
+            (self.guard_told, self.since_told) = (guard, 0);
+        }
         // A ringing key keeps the host processing (its tail); silence lets it sleep.
         if sounding { ProcessStatus::KeepAlive } else { ProcessStatus::Normal }
     }

@@ -484,6 +484,31 @@ def fuzz_state_in_child(path):
     return [f"the host died loading a damaged state (exit status {child.returncode}; the last state listed above)"]
 
 
+# A MIDI feedback loop: 20,000 notes a second, every key in turn at full
+# velocity, for a second. It peaked at +23 dBFS before the output's guard;
+# the guard holds every plugin at +6 dBFS.
+FLOOD_NOTES_PER_S = 20_000
+GUARD_CEILING = 10.0 ** (6.0 / 20.0)
+
+
+def flood_failures(plugin):
+    """Failures of a flood of notes through the plugin: a sample that is not
+    finite, or a peak over the guard's ceiling."""
+    events = [(bytes([0x90, 21 + i % 88, 127]), i / FLOOD_NOTES_PER_S) for i in range(FLOOD_NOTES_PER_S)]
+    audio = np.asarray(
+        plugin(events, duration=1.5, sample_rate=SAMPLE_RATE_HZ, num_channels=2, buffer_size=BLOCK_SIZE, reset=False)
+    )
+    if not np.all(np.isfinite(audio)):
+        return ["a flood of notes made a sample that is not finite"]
+    peak = float(np.max(np.abs(audio)))
+    print(f"a flood of {FLOOD_NOTES_PER_S} notes in a second: peak {level_db(peak):+.1f} dBFS")
+    if peak > GUARD_CEILING * (1.0 + 1e-6):
+        return [f"a flood of notes peaks at {level_db(peak):+.1f} dBFS, over the guard's +6"]
+    if peak < 1.0:
+        return [f"a flood of notes peaks at {level_db(peak):+.1f} dBFS: did it play?"]
+    return []
+
+
 def level_db(x):
     return 20.0 * np.log10(max(float(x), 1e-12))
 
@@ -550,6 +575,7 @@ def main(argv):
             f"load smoothing: {reported_smoothed} samples of latency reported with it on, {reported_plain} off"
         )
         failures += latency_failures(audio, plain, reported_smoothed, reported_plain)
+        failures += flood_failures(plugin)
 
     sys.stdout.flush()
     failures += fuzz_state_in_child(args.plugin)

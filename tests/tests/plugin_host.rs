@@ -711,6 +711,67 @@ fn a_burst_of_thousands_of_events_in_one_block_child() {
     assert!(rms(&run.left[BLOCK..]) > 1e-4, "the note sounds through the burst");
 }
 
+#[test]
+fn a_flood_of_notes_is_held_under_the_ceiling_and_logged() {
+    // 20,000 notes a second (a MIDI feedback loop) reached +23 dBFS: the
+    // output's guard holds the plugin at +6 dBFS and says so in the log,
+    // from a background thread (the audio thread allocates nothing: the
+    // debug bundle would abort if it did).
+    let Some(_) = bundle() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("plugin.log");
+    let here = "a_flood_of_notes_child";
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", here, "--ignored", "--nocapture", "--test-threads=1"])
+        .env("NICE_LOG", &log)
+        .output()
+        .unwrap();
+    let shown = format!("{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{shown}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 passed"), "the child did not run:\n{shown}");
+    // (The log is written from a background thread: give it a moment.)
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let mut said = String::new();
+    while std::time::Instant::now() < deadline {
+        said = std::fs::read_to_string(&log).unwrap_or_default();
+        if said.contains("the output guard held the output under +6 dBFS") {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(said.contains("the output guard held the output under +6 dBFS"), "not logged:\n{said}");
+}
+
+#[test]
+#[ignore = "run by a_flood_of_notes_is_held_under_the_ceiling_and_logged"]
+fn a_flood_of_notes_child() {
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    // 20,000 notes a second for 1.5 s, every key in turn at full velocity,
+    // then half a second of what rings on.
+    let blocks = (2.0 * FS / BLOCK as f64) as usize;
+    let per_block = (20_000.0 * BLOCK as f64 / FS) as usize;
+    let mut script = Script::new();
+    let mut note = 0u32;
+    for block in 0..(1.5 * FS / BLOCK as f64) as usize {
+        let mut events = EventBuffer::with_capacity(per_block);
+        for i in 0..per_block {
+            let time = (i * BLOCK / per_block) as u32;
+            events.push(&note_on(time, 21 + (note % 88) as u16, note, 1.0));
+            note += 1;
+        }
+        script.push((block, events));
+    }
+    let run = process(&mut instance, &vec![BLOCK; blocks], &script, Duration::ZERO);
+    let peak = run.left.iter().chain(&run.right).fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!(run.left.iter().chain(&run.right).all(|v| v.is_finite()));
+    assert!(peak <= 1.995_263, "peak {:.2} dBFS", 20.0 * peak.log10());
+    assert!(peak > 1.0, "the flood is loud: {:.2} dBFS", 20.0 * peak.log10());
+    // (The log line is written once the executor has run: let it.)
+    std::thread::sleep(Duration::from_millis(500));
+}
+
 /// The plugin's state as CLAP hosts keep it from nice-plug: the JSON's
 /// length (little-endian u64), then the JSON.
 fn clap_state(json: &[u8]) -> Vec<u8> {

@@ -17,7 +17,7 @@ use crate::body::boards::ZoneShare;
 use crate::body::load::{BoardLoad, trade, unison_step};
 use crate::body::{Bridge, BridgePoint, KeyPan};
 use crate::damper::Damper;
-use crate::design::{ExciterDesign, InstrumentKind, KeyDesign, ResistiveBridge, Touch};
+use crate::design::{ExciterDesign, InstrumentKind, KeyDesign, LiveVoicing, ResistiveBridge, Touch};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::hammer::{HammerSpec, Hysteresis};
@@ -337,6 +337,9 @@ pub(crate) struct Key {
     /// factors ([`Self::set_hammer`]).
     hammer_hardness: f64,
     hammer_position: f64,
+    /// The player's voicing over the one the key was built with, taken while
+    /// it plays ([`Self::set_live_voicing`]).
+    live: LiveVoicing,
     /// How far full pressure raises a tangent's pitch, cents, and the
     /// tension's factor that makes it (the pitch's squared).
     bebung_cents: f64,
@@ -544,6 +547,7 @@ impl Key {
             pan: KeyPan::default(),
             hammer_hardness: 1.0,
             hammer_position: 1.0,
+            live: LiveVoicing::default(),
             bebung_cents: 0.0,
             bebung: 1.0,
             pitch_set: 1.0,
@@ -899,6 +903,24 @@ impl Key {
         self.hammer_position = if position > 0.0 { position.clamp(1.0 / 16.0, 16.0) } else { 1.0 };
     }
 
+    /// The player's voicing over the one the key was built with: the
+    /// strings' losses from now on (a ringing key's poles are worked out
+    /// again: one exp and one sin/cos per mode), the hammer's at its next
+    /// strike. Allocates: no.
+    pub fn set_live_voicing(&mut self, live: LiveVoicing) {
+        if live == self.live {
+            return;
+        }
+        let repole = live.damping != self.live.damping;
+        self.live = live;
+        for s in &mut self.strings {
+            s.set_loss_scale(live.damping);
+        }
+        if repole && self.is_sounding() {
+            self.set_poles(self.pitch_set);
+        }
+    }
+
     /// How far full pressure raises a held tangent's pitch, cents (Bebung).
     pub fn set_bebung(&mut self, cents: f64) {
         if cents != self.bebung_cents {
@@ -1002,7 +1024,7 @@ impl Key {
         let pitch = self.pitch(bend);
         self.set_poles(pitch);
         // Where its own strike point puts the hammer (or plectrum) built at `position`.
-        let factor = self.hammer_position;
+        let factor = self.hammer_position * self.live.strike_position;
         let own_point = |position: f64| {
             if factor == 1.0 { position } else { (position * factor).clamp(MIN_STRIKE_POINT, MAX_STRIKE_POINT) }
         };
@@ -1010,6 +1032,8 @@ impl Key {
         let strings = &mut self.strings[played.struck.clone()];
         match played.exciter {
             ExciterDesign::Hammer { mass_kg, law, position } => {
+                let (mass_kg, law) = (mass_kg * self.live.hammer_mass, self.live.felt(law));
+                let hysteresis = self.live.hysteresis(played.hysteresis);
                 if self.key_bed {
                     self.bed_pulse = Some((0, touch));
                 }
@@ -1045,7 +1069,7 @@ impl Key {
                     let felt =
                         ContactLaw { stiffness: law.stiffness * hardness * soft * met / width, exponent: law.exponent };
                     let hammer = HammerSpec::one_of(1, mass_kg * met / width, felt, touch, position);
-                    s.strike_substepped(hammer.with_hysteresis(played.hysteresis), substeps);
+                    s.strike_substepped(hammer.with_hysteresis(hysteresis), substeps);
                 }
             }
             ExciterDesign::Tangent { displacement_m, .. } => {

@@ -58,6 +58,9 @@ pub struct StruckString {
     /// (the damper lifts), put back instead of worked out again. A chord's
     /// keys spent a tenth of its first block on their poles' sines and cosines.
     lifted: (f64, SavedPoles),
+    /// The player's damping over the built one: a factor on every mode's own
+    /// decay rate in the free step ([`Self::set_loss_scale`]).
+    loss_scale: f64,
 }
 
 impl StruckString {
@@ -99,6 +102,7 @@ impl StruckString {
             bridge_kick: Vec::new(),
             under_top: (usize::MAX, 1.0),
             lifted,
+            loss_scale: 1.0,
         }
     }
 
@@ -350,6 +354,7 @@ impl StruckString {
     /// Allocates: no. One exp and one sin/cos per mode, but for a lifted
     /// damper at the pitch last asked for with it: those poles are put back.
     pub fn set_free_step(&mut self, extra_decay_s: f64, extra_decay_per_hz_s: f64, pitch_ratio: f64) {
+        let loss_scale = self.loss_scale;
         let top_rad_s = BENT_TOP * std::f64::consts::TAU / self.audio.step_s;
         if pitch_ratio != self.under_top.1 {
             let under = self.string.modes.iter().take_while(|m| pitch_ratio * m.damped_omega_rad_s() < top_rad_s);
@@ -361,7 +366,7 @@ impl StruckString {
             return;
         }
         for (i, mode) in self.string.modes.iter().enumerate() {
-            let sigma = mode.decay_rate_s() + extra_decay_s + extra_decay_per_hz_s * mode.frequency_hz();
+            let sigma = loss_scale * mode.decay_rate_s() + extra_decay_s + extra_decay_per_hz_s * mode.frequency_hz();
             let omega_rad_s = pitch_ratio * mode.damped_omega_rad_s();
             if omega_rad_s < top_rad_s {
                 self.audio.set_pole(i, sigma, omega_rad_s);
@@ -374,6 +379,18 @@ impl StruckString {
         if lifted {
             self.lifted.0 = pitch_ratio;
             self.audio.save_poles_into(&mut self.lifted.1);
+        }
+    }
+
+    /// Scale every mode's own decay rate by `scale` from the next
+    /// [`Self::set_free_step`] on (the player's damping, moved while the
+    /// string plays; 1: as built). Allocates: no.
+    pub fn set_loss_scale(&mut self, scale: f64) {
+        let scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+        if scale != self.loss_scale {
+            self.loss_scale = scale;
+            // The lifted damper's poles saved were worked out at the old losses.
+            self.lifted.0 = f64::NAN;
         }
     }
 

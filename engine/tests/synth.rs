@@ -1152,3 +1152,98 @@ fn ordinary_playing_never_meets_the_guard() {
     let (peak, report) = flood_peak(&events, 3.0);
     assert!(!report.acted(), "{report:?}, peak {peak}");
 }
+
+/// Decay of `x`'s level from `from_s` to `to_s`, dB/s (from its RMS in 50 ms
+/// frames, a least-squares line).
+fn decay_db_s(x: &[f32], from_s: f64, to_s: f64) -> f64 {
+    let frame = (0.05 * FS) as usize;
+    let points: Vec<(f64, f64)> = window(x, from_s, to_s)
+        .chunks_exact(frame)
+        .enumerate()
+        .map(|(i, c)| (i as f64 * 0.05, 20.0 * rms(c).max(1e-30).log10()))
+        .collect();
+    let n = points.len() as f64;
+    let (mt, ml) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let cov: f64 = points.iter().map(|p| (p.0 - mt) * (p.1 - ml)).sum();
+    let var: f64 = points.iter().map(|p| (p.0 - mt).powi(2)).sum();
+    -cov / var
+}
+
+fn built_with(voicing: Voicing) -> Synth {
+    let settings = InstrumentSettings { voicing, ..default_settings(InstrumentKind::Piano, FS) };
+    let mut synth = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
+    synth.set_controls(bridge());
+    synth
+}
+
+#[test]
+fn a_voicing_moved_while_playing_is_heard_as_one_built_with_it() {
+    // The synth takes the strings' damping and the hammer live (no new
+    // tables): C3 on the bridge force, the damping doubled 0.3 s into the
+    // note, decays from then on as a piano built with it does; a hammer
+    // twice as heavy, with felt 4 times as stiff, half the hysteresis and a
+    // strike point moved in, strikes as a hammer built so does.
+    let key = 48;
+    let f = struck_engine::design::key_frequency_hz(key);
+    let strike = [(0.0, Event::NoteOn { key, velocity: 0.7 })];
+    let doubled = Voicing { damping: 2.0, ..Voicing::default() };
+    let mut live = synth(InstrumentKind::Piano);
+    let mut moved = render(&mut live, 0.3, &strike, 256);
+    live.set_voicing(&doubled);
+    moved.extend(render(&mut live, 1.5, &[], 256));
+    let plain = render(&mut synth(InstrumentKind::Piano), 1.8, &strike, 256);
+    let built = render(&mut built_with(doubled), 1.8, &strike, 256);
+    let (d_plain, d_live, d_built) =
+        (decay_db_s(&plain, 0.6, 1.8), decay_db_s(&moved, 0.6, 1.8), decay_db_s(&built, 0.6, 1.8));
+    println!("C3 decay 0.6-1.8 s: {d_plain:.1} dB/s as built, {d_live:.1} doubled live, {d_built:.1} built doubled");
+    assert!(d_live > 1.4 * d_plain, "the live damping is not heard");
+    assert!((d_live / d_built - 1.0).abs() < 0.15, "live {d_live:.1} dB/s, built {d_built:.1} dB/s");
+
+    let hammer = Voicing {
+        hammer_mass: 2.0,
+        hammer_stiffness: 4.0,
+        felt_hysteresis: 0.5,
+        strike_position: 0.8,
+        ..Voicing::default()
+    };
+    let mut live = synth(InstrumentKind::Piano);
+    live.set_voicing(&hammer);
+    let live = render(&mut live, 0.6, &strike, 256);
+    let built = render(&mut built_with(hammer), 0.6, &strike, 256);
+    let plain = &plain[..live.len()];
+    let brightness = |out: &[f32]| (9..=14).map(|n| partial_db(out, f, n)).sum::<f64>() / 6.0 - partial_db(out, f, 1);
+    let (b_plain, b_live, b_built) = (brightness(plain), brightness(&live), brightness(&built));
+    println!("C3 partials 9-14 re the 1st: {b_plain:.1} dB as built, {b_live:.1} live, {b_built:.1} built so");
+    assert!((b_live - b_plain).abs() > 2.0, "the live hammer is not heard");
+    assert!((b_live - b_built).abs() < 1.5, "live {b_live:.1} dB, built {b_built:.1} dB");
+    // The exponent too: a felt hardening faster (alpha 1.5 times).
+    let steeper = Voicing { hammer_exponent: 1.5, ..Voicing::default() };
+    let mut live = synth(InstrumentKind::Piano);
+    live.set_voicing(&steeper);
+    let (live, built) = (render(&mut live, 0.6, &strike, 256), render(&mut built_with(steeper), 0.6, &strike, 256));
+    let (b_live, b_built) = (brightness(&live), brightness(&built));
+    println!("C3 with the felt's exponent 1.5 times: {b_live:.1} dB live, {b_built:.1} built so");
+    assert!((b_live - b_built).abs() < 1.5 && (b_live - b_plain).abs() > 1.0, "{b_plain:.1} {b_live:.1} {b_built:.1}");
+}
+
+#[test]
+fn an_instrument_built_with_the_live_voicing_takes_none_of_it_twice() {
+    // The live factors are taken over what the playing instrument was built
+    // with: once one built with the new voicing is installed, its keys play
+    // as built, bit for bit.
+    let doubled = Voicing { damping: 2.0, hammer_mass: 1.5, ..Voicing::default() };
+    let strike = [(0.0, Event::NoteOn { key: 60, velocity: 0.7 })];
+    let mut synth = synth(InstrumentKind::Piano);
+    synth.set_voicing(&doubled);
+    let settings = InstrumentSettings { voicing: doubled, ..default_settings(InstrumentKind::Piano, FS) };
+    synth.install(Box::new(Instrument::build(&settings).unwrap()));
+    let installed = render(&mut synth, 0.5, &strike, 256);
+    let built = render(&mut built_with(doubled), 0.5, &strike, 256);
+    assert!(installed.iter().zip(&built).all(|(a, b)| a.to_bits() == b.to_bits()));
+    // And set back to the built voicing, a synth plays as it always did.
+    let mut back = built_with(Voicing::default());
+    back.set_voicing(&doubled);
+    back.set_voicing(&Voicing::default());
+    let plain = render(&mut built_with(Voicing::default()), 0.5, &strike, 256);
+    assert!(render(&mut back, 0.5, &strike, 256).iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
+}

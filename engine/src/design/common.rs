@@ -18,7 +18,7 @@ use crate::string::{Mass, StringSpec};
 
 /// Compression at which a voiced exponent keeps the felt's force unchanged, m
 /// (a typical forte compression of a mid-range piano hammer; physics reference 1.5).
-pub(super) const REFERENCE_COMPRESSION_M: f64 = 0.5e-3;
+pub(crate) const REFERENCE_COMPRESSION_M: f64 = 0.5e-3;
 
 /// ln(1000): the decay exponent for 60 dB of amplitude.
 pub(super) const DECAY_60_DB: f64 = 6.907_755_278_982_137;

@@ -282,6 +282,78 @@ impl Default for Voicing {
     }
 }
 
+/// What a playing instrument takes of a new voicing without new tables: the
+/// strings' losses (every free mode's decay rate), and the hammer's mass,
+/// felt stiffness and exponent, hysteresis and strike point (each met at the
+/// next strike), as factors on what the instrument was built with (1: as
+/// built). A key's regulation and voicing through the body stay as built
+/// until the instrument is built again with the new voicing (a felt built
+/// elastic stays so until then).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LiveVoicing {
+    pub damping: f64,
+    pub hammer_mass: f64,
+    pub hammer_stiffness: f64,
+    pub hammer_exponent: f64,
+    pub strike_position: f64,
+    pub felt_hysteresis: f64,
+}
+
+impl Default for LiveVoicing {
+    fn default() -> Self {
+        Self {
+            damping: 1.0,
+            hammer_mass: 1.0,
+            hammer_stiffness: 1.0,
+            hammer_exponent: 1.0,
+            strike_position: 1.0,
+            felt_hysteresis: 1.0,
+        }
+    }
+}
+
+impl LiveVoicing {
+    /// `now` over `built`, field by field (1 where either is not a positive
+    /// number).
+    pub fn between(built: &Voicing, now: &Voicing) -> Self {
+        let ratio = |now: f64, built: f64| {
+            let r = now / built;
+            if now > 0.0 && built > 0.0 && r.is_finite() { r } else { 1.0 }
+        };
+        Self {
+            damping: ratio(now.damping, built.damping),
+            hammer_mass: ratio(now.hammer_mass, built.hammer_mass),
+            hammer_stiffness: ratio(now.hammer_stiffness, built.hammer_stiffness),
+            hammer_exponent: ratio(now.hammer_exponent, built.hammer_exponent),
+            strike_position: ratio(now.strike_position, built.strike_position),
+            felt_hysteresis: ratio(now.felt_hysteresis, built.felt_hysteresis),
+        }
+    }
+
+    /// The felt law `law` (as built) moved by these factors: the exponent
+    /// times its factor (held to 1..=6), the stiffness times its factor and
+    /// rescaled so the force at the reference compression stays, as the
+    /// voicing does it at build time.
+    pub fn felt(&self, law: ContactLaw) -> ContactLaw {
+        if self.hammer_exponent == 1.0 && self.hammer_stiffness == 1.0 {
+            return law;
+        }
+        let exponent = (law.exponent * self.hammer_exponent).clamp(1.0, 6.0);
+        let stiffness =
+            law.stiffness * self.hammer_stiffness * common::REFERENCE_COMPRESSION_M.powf(law.exponent - exponent);
+        ContactLaw { stiffness, exponent }
+    }
+
+    /// The felt's hysteresis `felt` (as built) with eps times its factor,
+    /// held under the most a voiced felt may take back.
+    pub fn hysteresis(&self, felt: Option<Hysteresis>) -> Option<Hysteresis> {
+        if self.felt_hysteresis == 1.0 {
+            return felt;
+        }
+        felt.map(|h| Hysteresis { epsilon: (h.epsilon * self.felt_hysteresis).min(MOST_HYSTERESIS), ..h })
+    }
+}
+
 /// What sets a key's strings in motion.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExciterDesign {

@@ -35,7 +35,7 @@ use crate::body::boards;
 use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
 use crate::body::{Bridge, BridgePoint, Output};
-use crate::design::{self, InstrumentKind, KeyDesign, Touch, TouchRange, Voicing, key_frequency_hz};
+use crate::design::{self, InstrumentKind, KeyDesign, LiveVoicing, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
 use crate::share::{CachePadded, Helper};
 use crate::string::StringError;
@@ -937,7 +937,19 @@ pub struct Synth {
     /// (or the upper keys after the body over the stretch before), offline
     /// (see [`crate::share`]).
     helper: Option<Helper>,
+    /// The voicing the player asks for now: what of it the instrument was not
+    /// built with, it takes live ([`Self::set_voicing`]); what the keys have
+    /// taken of it, when, and whether a new damping waits for its turn.
+    voicing: Voicing,
+    live: LiveVoicing,
+    live_taken_at: u64,
+    live_pending: bool,
 }
+
+/// A ringing key takes a new damping at most once in this long, s: each time
+/// its strings' poles are worked out again (an exp and a sin/cos a mode), and
+/// a damping moved by an LFO would have that done in every block.
+const LIVE_DAMPING_EVERY_S: f64 = 0.01;
 
 /// A MIDI key's own note shaping ([`Event::KeyBend`], [`Event::KeyVolume`],
 /// [`Event::KeyPan`], [`Event::KeyHammer`]).
@@ -970,6 +982,7 @@ impl Synth {
     pub fn new(instrument: Box<Instrument>) -> (Self, Scope) {
         let (scope, reader) = scope::channel();
         let fs = instrument.settings.sample_rate_hz;
+        let voicing = instrument.settings.voicing;
         let synth = Self {
             current: instrument,
             outgoing: None,
@@ -990,6 +1003,10 @@ impl Synth {
             ended: Vec::with_capacity(1024),
             scope,
             helper: None,
+            voicing,
+            live: LiveVoicing::default(),
+            live_taken_at: 0,
+            live_pending: false,
         };
         (synth, reader)
     }
@@ -1006,6 +1023,38 @@ impl Synth {
     pub fn set_controls(&mut self, controls: Controls) {
         self.controls = controls;
         self.bend = self.bend_ratio();
+    }
+
+    /// The voicing the player asks for: what of it the instrument playing
+    /// was not built with and can take live ([`LiveVoicing`]: the strings'
+    /// losses, the hammer) it takes now; the rest waits for an instrument
+    /// built with it ([`InstrumentSettings::builds_like`]). Real-time safe.
+    pub fn set_voicing(&mut self, voicing: &Voicing) {
+        if *voicing != self.voicing {
+            self.voicing = *voicing;
+            self.take_live_voicing(false);
+        }
+    }
+
+    /// Give the keys the voicing asked for over the one they were built with:
+    /// the hammer at once, a new damping once [`LIVE_DAMPING_EVERY_S`] has
+    /// passed since the last (or `now`).
+    fn take_live_voicing(&mut self, now: bool) {
+        let mut live = LiveVoicing::between(&self.current.settings.voicing, &self.voicing);
+        let every = (LIVE_DAMPING_EVERY_S * self.current.settings.sample_rate_hz) as u64;
+        let due = now || self.clock >= self.live_taken_at.saturating_add(every);
+        self.live_pending = !due && live.damping != self.live.damping;
+        if self.live_pending {
+            live.damping = self.live.damping;
+        } else if live.damping != self.live.damping {
+            self.live_taken_at = self.clock;
+        }
+        if live != self.live || now {
+            self.live = live;
+            for key in self.current.keys.iter_mut().flatten() {
+                key.set_live_voicing(live);
+            }
+        }
     }
 
     fn bend_ratio(&self) -> f64 {
@@ -1103,6 +1152,7 @@ impl Synth {
             self.current.balance(phase);
         }
         self.outlet.set_rate(self.current.settings.sample_rate_hz);
+        self.take_live_voicing(true);
     }
 
     fn retire(&mut self, instrument: Box<Instrument>) {
@@ -1185,6 +1235,9 @@ impl Synth {
             while next_event < events.len() && (events[next_event].time as usize) <= pos {
                 self.handle(events[next_event].event);
                 next_event += 1;
+            }
+            if self.live_pending {
+                self.take_live_voicing(false);
             }
             let phase = (self.clock % CONTROL_BLOCK as u64) as usize;
             let until_event = events.get(next_event).map_or(n, |e| (e.time as usize).min(n));

@@ -22,7 +22,7 @@ use std::sync::{Arc, Mutex};
 
 use nice_plug::prelude::*;
 use nice_plug_egui::{EguiEditor, EguiEditorState};
-use struck_engine::synth::{GuardReport, Instrument, Synth, Workshop};
+use struck_engine::synth::{GuardReport, Instrument, OfflineBuilds, Synth, Workshop};
 
 use crate::editor::{ScopeFeed, SharedScope, StruckEditor};
 use crate::keyboard::KeyboardLink;
@@ -52,8 +52,9 @@ pub struct StruckPlugin {
     /// time is rendering offline, whether or not it says so (Ardour's export
     /// tells each block, which the wrapper does not pass on).
     pace: Pace,
-    /// What the instrument playing offline was built from.
-    built: Option<BuildKey>,
+    /// What the instrument playing offline was built from, and when it is
+    /// to be built again.
+    builds: OfflineBuilds<BuildKey>,
     /// True while the workshop builds an instrument (the panel says so).
     building: Arc<AtomicBool>,
     /// The panel's keyboard and what it shows of the keys and pedals.
@@ -82,7 +83,7 @@ impl Default for StruckPlugin {
             voice_capacity: 0,
             offline: false,
             pace: Pace::default(),
-            built: None,
+            builds: OfflineBuilds::new(0.0),
             building: Arc::new(AtomicBool::new(false)),
             keyboard: Arc::new(KeyboardLink::default()),
             guard_told: GuardReport::default(),
@@ -198,7 +199,7 @@ impl Plugin for StruckPlugin {
         }
         self.offline = buffer_config.process_mode == ProcessMode::Offline;
         // (Offline, the first block makes sure what plays is what is asked for.)
-        self.built = None;
+        self.builds = OfflineBuilds::new(sample_rate_hz);
         true
     }
 
@@ -230,10 +231,12 @@ impl Plugin for StruckPlugin {
             // A host rendering offline does not wait for the clock: what the
             // automation changed is built now and heard from this sample (the
             // block is cut where it changed), and every bounce is the same.
-            let key = self.params.build_key();
-            if self.built != Some(key) {
+            // What moves on (a ramp, an LFO) is built again once every
+            // REBUILD_SPACING_S of audio, at its value then, and the bounce
+            // keeps ahead of real time; between builds the synth takes the
+            // damping and the hammer live.
+            if self.builds.due(self.params.build_key(), samples) {
                 performer.catch_up();
-                self.built = Some(key);
             }
         }
         let controls = self.params.controls();
@@ -250,6 +253,7 @@ impl Plugin for StruckPlugin {
             return ProcessStatus::Normal;
         };
         performer.set_mpe(self.params.mpe());
+        performer.set_voicing(&self.params.voicing());
         let latency = self.params.latency(self.sample_rate_hz);
         if latency != performer.latency() {
             // (The host restarts the plugin to take the new latency.)

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use nice_plug::prelude::*;
+use struck_engine::design::Voicing;
 use struck_engine::synth::{
     BendRouter, Controls, Delivery, Event, HammerRouter, Paced, PressureRouter, Synth, TimedEvent,
 };
@@ -130,6 +131,12 @@ impl Performer {
     /// now, built at once ([`Delivery::catch_up`]). Allocates: no.
     pub fn catch_up(&mut self) -> bool {
         self.delivery.catch_up(self.synth.synth_mut())
+    }
+
+    /// The player's voicing: what the synth takes live of it, it takes now
+    /// ([`Synth::set_voicing`]). Real-time safe.
+    pub fn set_voicing(&mut self, voicing: &Voicing) {
+        self.synth.synth_mut().set_voicing(voicing);
     }
 
     /// Silence everything at the start of the next block. Real-time safe.

@@ -499,6 +499,75 @@ fn offline_an_automated_voicing_is_heard_from_its_sample_and_every_bounce_is_the
     assert!(to_heavy < -120.0, "the note struck at the change is not the new hammer's ({to_heavy:.1} dB)");
 }
 
+/// A bounce offline of the harpsichord's C4 held 2.5 s, with, if `lfo`, a
+/// 2 Hz LFO on "Damping" (a value every block, as a host's automation
+/// gives it).
+fn damping_bounce(loaded: &Loaded, lfo: bool) -> Vec<f32> {
+    let mut instance = loaded.instance();
+    let ids = param_ids(&mut instance);
+    let damping = param(&ids, "Damping");
+    {
+        let handle = instance.plugin_handle();
+        let render: PluginRender = handle.get_extension().expect("render extension");
+        render.set(&handle, RenderMode::Offline).expect("the render mode");
+        let mut changes = EventBuffer::new();
+        // (The last of the seven instruments, normalized.)
+        changes.push(&set(0, param(&ids, "Instrument"), 1.0));
+        let mut handle = instance.inactive_plugin_handle().expect("inactive");
+        let params: PluginParams = handle.get_extension().unwrap();
+        params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
+    }
+    let blocks = (2.5 * FS) as usize / BLOCK;
+    let script: Script = (0..blocks)
+        .map(|b| {
+            let mut events = EventBuffer::new();
+            if lfo {
+                let t = (b * BLOCK) as f64 / FS;
+                events.push(&set(0, damping, 0.5 + 0.4 * (std::f64::consts::TAU * 2.0 * t).sin()));
+            }
+            if b == 0 {
+                events.push(&note_on(0, 60, 1, 0.8));
+            }
+            (b, events)
+        })
+        .collect();
+    process(&mut instance, &vec![BLOCK; blocks], &script, Duration::ZERO).left
+}
+
+#[test]
+fn offline_an_lfo_on_damping_is_heard_as_it_moves_and_every_bounce_is_the_same() {
+    // The synth takes the damping live between the instrument's builds (at
+    // the first change, then once every two seconds of audio while it moves):
+    // the note's decay follows the LFO, faster while the damping is up, and
+    // two bounces are the same to the bit.
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let (first, second) = (damping_bounce(&loaded, true), damping_bounce(&loaded, true));
+    assert!(first.iter().zip(&second).all(|(a, b)| a.to_bits() == b.to_bits()), "two bounces differ");
+    assert!(first.iter().all(|s| s.is_finite()));
+    let plain = damping_bounce(&loaded, false);
+    // The level's fall over each quarter period of the LFO (0.125 s), dB,
+    // with the LFO and without.
+    let level = |x: &[f32], t: f64| {
+        let at = (t * FS) as usize;
+        20.0 * rms(&x[at..at + (0.02 * FS) as usize]).max(1e-12).log10()
+    };
+    let mut swing = Vec::new();
+    for quarter in 2..18 {
+        let (t0, t1) = (quarter as f64 * 0.125, (quarter + 1) as f64 * 0.125);
+        let fall = |x: &[f32]| level(x, t0) - level(x, t1);
+        swing.push(fall(&first) - fall(&plain));
+    }
+    eprintln!("the LFO's fall over each quarter period re the plain note's, dB: {swing:.1?}");
+    // The damping is up over the first half period (quarters 0, 1 mod 4),
+    // down over the second.
+    let (up, down): (Vec<_>, Vec<_>) = swing.iter().enumerate().partition(|(i, _)| (i + 2) % 4 < 2);
+    let mean = |v: &[(usize, &f64)]| v.iter().map(|p| *p.1).sum::<f64>() / v.len() as f64;
+    let (up, down) = (mean(&up), mean(&down));
+    eprintln!("mean extra fall: {up:.2} dB while up, {down:.2} dB while down");
+    assert!(up > down + 0.5, "the decay does not follow the LFO: {up:.2} dB up, {down:.2} dB down");
+}
+
 /// The strongest level (dB) within 2 % above `hz` (a stiff string's partials
 /// run sharp), Hann window, 41 frequencies.
 fn partial_db(samples: &[f32], hz: f64) -> f64 {

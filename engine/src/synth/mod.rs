@@ -29,7 +29,7 @@ pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, Ti
 pub use guard::{GuardReport, Silenced};
 pub use paced::{Ahead, MAX_PACED_LATENCY, PACED_BUDGET, PACED_LATENCY_S, Paced};
 pub use scope::{Scope, ScopeFrame};
-pub use workshop::{Delivery, Workshop};
+pub use workshop::{Delivery, OfflineBuilds, REBUILD_SPACING_S, Workshop};
 
 use crate::body::boards;
 use crate::body::load::BoardLoad;

@@ -70,6 +70,10 @@ const CHORD32_FACTOR_MIN: f64 = 100.0;
 /// The same on both cores (issue 20), bit-identical to one.
 const CHORD32_THREADS_FACTOR_MIN: f64 = 300.0;
 const IDLE_LOAD_MAX: f64 = 0.01;
+/// An automated voicing parameter bounces offline at least as fast as real
+/// time, over this much audio (times --seconds, at least 1).
+const AUTOMATED_FACTOR_MIN: f64 = 1.0;
+const AUTOMATED_S: f64 = 10.0;
 
 pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let seconds = args.seconds;
@@ -238,6 +242,29 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
     }
 
+    // Automation bounced offline.
+    out.blank();
+    out.line(format!(
+        "A 2 Hz LFO on a voicing parameter, the piano bounced offline as a plugin host does ({:.0} s, chords every 0.5 s)",
+        AUTOMATED_S * seconds.max(1.0)
+    ));
+    let mut automated = Vec::new();
+    for param in [workload::Automated::Damping, workload::Automated::BoardSize] {
+        let (factor, builds) = workload::automated_bounce(param, AUTOMATED_S * seconds.max(1.0), runs.min(2));
+        let name = match param {
+            workload::Automated::Damping => "automated_damping",
+            workload::Automated::BoardSize => "automated_board_size",
+        };
+        let pass = goals.check(name, factor, AtLeast, AUTOMATED_FACTOR_MIN);
+        out.goal(
+            &format!("{} ({builds} builds)", param.label().replace('_', " ")),
+            format!("{factor:.1}x real time"),
+            format!(">= {AUTOMATED_FACTOR_MIN:.0}x"),
+            pass,
+        );
+        automated.push((param.label(), factor, builds));
+    }
+
     // The 32-note chord, offline.
     out.blank();
     let (chord32_factor, chord32_keys, one) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, false);
@@ -401,6 +428,15 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                     "fmas_per_mode_sample": FMAS_PER_COMPLEX_MODE_SAMPLE,
                     "fraction_of_fma_probe": complex_fraction,
                 },
+            },
+            "automated": {
+                "audio_s": AUTOMATED_S * seconds.max(1.0),
+                "lfo_hz": 2.0,
+                "rebuild_spacing_s": struck_engine::synth::REBUILD_SPACING_S,
+                "params": automated
+                    .iter()
+                    .map(|(name, factor, builds)| json!({"param": name, "realtime_factor": factor, "builds": builds}))
+                    .collect::<Vec<_>>(),
             },
             "chord32": {
                 "held_s": CHORD32_HELD_S,

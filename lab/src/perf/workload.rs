@@ -333,3 +333,83 @@ mod tests {
         assert!(keys.iter().all(|k| InstrumentKind::Piano.key_range().contains(k)));
     }
 }
+
+/// A voicing parameter a host's automation moves ([`automated_bounce`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Automated {
+    /// The strings' damping, 0.5..=2 (the synth takes it live between builds).
+    Damping,
+    /// The body's board size, 0.8..=1.25 (heard only once built).
+    BoardSize,
+}
+
+impl Automated {
+    pub fn label(self) -> &'static str {
+        match self {
+            Automated::Damping => "damping",
+            Automated::BoardSize => "board_size",
+        }
+    }
+}
+
+/// How a plugin host bounces the piano offline with a 2 Hz LFO on `param`:
+/// the voicing set every 64-sample block (what the synth takes live, it takes
+/// then), the instrument rebuilt by the workshop when the automation asks
+/// ([`struck_engine::synth::OfflineBuilds`]: at once, then about once every
+/// [`struck_engine::synth::REBUILD_SPACING_S`] of audio while it moves), a four-note chord struck every half second with
+/// the pedal down, `audio_s` long. Seconds of audio per second of wall
+/// clock (building included), fastest of `runs`, and the builds of the
+/// fastest.
+pub fn automated_bounce(param: Automated, audio_s: f64, runs: usize) -> (f64, usize) {
+    use std::sync::{Arc, Mutex};
+    use struck_engine::synth::{OfflineBuilds, Workshop};
+    let blocks = ((audio_s * SAMPLE_RATE_HZ / BLOCK as f64).ceil() as usize).max(1);
+    let chord = [48u8, 55, 64, 72];
+    let mut best = (0.0, 0);
+    for _ in 0..runs.max(1) {
+        let start = Instant::now();
+        let settings = default_settings(InstrumentKind::Piano, SAMPLE_RATE_HZ);
+        let asked = Arc::new(Mutex::new(settings.clone()));
+        let mut synth = Synth::new(Box::new(Instrument::build(&settings).expect("the piano builds"))).0;
+        let reader = asked.clone();
+        let (workshop, mut delivery) =
+            Workshop::spawn(settings, move || Some(reader.lock().unwrap_or_else(|e| e.into_inner()).clone()));
+        let mut builds = OfflineBuilds::new(SAMPLE_RATE_HZ);
+        let (mut left, mut right) = (vec![0.0f32; BLOCK], vec![0.0f32; BLOCK]);
+        let mut events = Vec::with_capacity(8);
+        let mut built = 0;
+        for b in 0..blocks {
+            let t = (b * BLOCK) as f64 / SAMPLE_RATE_HZ;
+            let lfo = (std::f64::consts::TAU * 2.0 * t).sin();
+            let wanted = {
+                let mut asked = asked.lock().unwrap_or_else(|e| e.into_inner());
+                match param {
+                    Automated::Damping => asked.voicing.damping = 2f64.powf(lfo),
+                    Automated::BoardSize => asked.voicing.board_size = 1.25f64.powf(lfo),
+                }
+                asked.clone()
+            };
+            if builds.due(wanted.clone(), BLOCK) {
+                delivery.catch_up(&mut synth);
+                built += 1;
+            }
+            synth.set_voicing(&wanted.voicing);
+            events.clear();
+            if b == 0 {
+                events.push(TimedEvent::new(0, Event::Sustain(1.0)));
+            }
+            let half = (0.5 * SAMPLE_RATE_HZ) as usize;
+            if (b * BLOCK) % half < BLOCK {
+                let velocity = if (b * BLOCK / half).is_multiple_of(2) { VELOCITY } else { 0.5 };
+                events.extend(chord.iter().map(|&key| TimedEvent::new(0, Event::NoteOn { key, velocity })));
+            }
+            synth.process(&events, &mut left, &mut right);
+        }
+        drop(workshop);
+        let factor = blocks as f64 * BLOCK as f64 / SAMPLE_RATE_HZ / start.elapsed().as_secs_f64();
+        if factor > best.0 {
+            best = (factor, built);
+        }
+    }
+    best
+}

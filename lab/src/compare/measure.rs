@@ -320,12 +320,17 @@ impl Analyzer {
         }
         let s = self.hann_spectrum(signal, start, start + len, 4, fs);
         let top_hz = band_hz.min(MAX_FIT_HZ).min(0.45 * fs);
-        // Prominence re a local floor: the 30th percentile of each stretch of nominal_hz.
-        let floor = local_floor(&s, nominal_hz);
-        let prominence = |k: usize| (s.db(k) - floor[k]).clamp(0.0, 40.0);
-        // Each bin scored by the most prominent peak within a tolerance of it.
+        // A bin scores when it stands out of its neighbourhood's floor (the
+        // 30th percentile of each stretch of nominal_hz), by how near it
+        // comes to the neighbourhood's strongest peak: a partial scores up
+        // to 30, a sideband or a body's resonance 30 dB under it nothing.
+        let (floor, top) = local_floor(&s, nominal_hz);
+        let score = |k: usize| {
+            if s.db(k) - floor[k] < PEAK_PROMINENCE_DB { 0.0 } else { (30.0 + s.db(k) - top[k]).clamp(0.0, 30.0) }
+        };
+        // Each bin scored by the best within a tolerance of it.
         let tolerance = ((0.04 * nominal_hz / s.bin_hz).round() as usize).max(1);
-        let raw: Vec<f64> = (0..s.power.len()).map(prominence).collect();
+        let raw: Vec<f64> = (0..s.power.len()).map(score).collect();
         let smeared = running_max(&raw, tolerance);
 
         let max_n = ((top_hz / nominal_hz) as usize).clamp(1, MAX_FIT_PARTIALS);
@@ -579,18 +584,27 @@ fn fit_stiff_series(peaks: &[(usize, f64)]) -> Option<(f64, f64, usize)> {
     None
 }
 
-/// The 30th percentile of the spectrum's dB in stretches of `width_hz`,
-/// per bin (a partial's neighbourhood level).
-fn local_floor(s: &Spectrum, width_hz: f64) -> Vec<f64> {
+/// The 30th percentile of the spectrum's dB in stretches of `width_hz`
+/// (a partial's neighbourhood level), and the highest dB in its stretch
+/// and the two beside it, per bin.
+fn local_floor(s: &Spectrum, width_hz: f64) -> (Vec<f64>, Vec<f64>) {
     let chunk = ((width_hz / s.bin_hz) as usize).max(8);
     let mut floor = vec![0.0; s.power.len()];
+    let mut highest = Vec::new();
     for (c, out) in floor.chunks_mut(chunk).enumerate() {
         let from = c * chunk;
         let values: Vec<f64> = (from..from + out.len()).map(|k| s.db(k)).collect();
         let level = quantile(&values, 0.3).unwrap_or(-300.0);
         out.iter_mut().for_each(|x| *x = level);
+        highest.push(values.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     }
-    floor
+    let top = (0..s.power.len())
+        .map(|k| {
+            let c = k / chunk;
+            highest[c.saturating_sub(1)..(c + 2).min(highest.len())].iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        })
+        .collect();
+    (floor, top)
 }
 
 /// The maximum of `values` within `radius` of each index.
@@ -674,10 +688,34 @@ pub fn onset(signal: &[f64], fs: f64) -> usize {
     energies.iter().position(|&e| e >= peak * 0.01).unwrap_or(0) * frame
 }
 
+/// The level of the noise a note sits on, dB (mean square, as `levels`,
+/// the level in 50-ms frames after the onset): the louder of what comes
+/// before the onset (at least 5 ms of it, up to 5 ms before) and the last second's level when
+/// the last two seconds are flat (under 0.5 dB/s). None found: -inf.
+fn noise_floor(signal: &[f64], onset: usize, fs: f64, levels: &[(f64, f64)]) -> f64 {
+    let mut floor = f64::NEG_INFINITY;
+    let before = &signal[..onset.saturating_sub((0.005 * fs) as usize)];
+    if before.len() as f64 >= 0.005 * fs {
+        floor = db(before.iter().map(|x| x * x).sum::<f64>() / before.len() as f64);
+    }
+    if let Some(last) = levels.last() {
+        let tail: Vec<(f64, f64)> = levels.iter().copied().filter(|p| p.0 >= last.0 - 2.0).collect();
+        if last.0 >= 3.0
+            && let Some((_, slope)) = line_fit(&tail)
+            && slope.abs() < 0.5
+        {
+            let end: Vec<f64> = tail.iter().filter(|p| p.0 >= last.0 - 1.0).map(|p| p.1).collect();
+            floor = floor.max(end.iter().sum::<f64>() / end.len() as f64);
+        }
+    }
+    floor
+}
+
 /// The time from the onset until the level (50-ms frames, every 25 ms) has
-/// fallen 40 dB below its peak. When the floor comes first (the level
-/// flattens within 10 dB of its lowest before falling 40 dB), a line fitted
-/// from 10 dB below the peak to there is extrapolated: (s, extrapolated).
+/// fallen 40 dB below its peak. When the noise floor (see [`noise_floor`])
+/// or the end comes first, a line fitted to the last two seconds before the
+/// level comes within 10 dB of the floor (and after it fell 10 dB) is
+/// extrapolated: (s, extrapolated).
 pub fn fall_time(signal: &[f64], onset: usize, fs: f64) -> Option<(f64, bool)> {
     let frame = (0.05 * fs) as usize;
     let hop = (0.025 * fs) as usize;
@@ -693,14 +731,18 @@ pub fn fall_time(signal: &[f64], onset: usize, fs: f64) -> Option<(f64, bool)> {
     }
     let (peak_at, peak) =
         levels.iter().enumerate().fold((0, f64::NEG_INFINITY), |m, (i, p)| if p.1 > m.1 { (i, p.1) } else { m });
-    let floor = levels.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+    let floor = noise_floor(signal, onset, fs, &levels);
     let stop = levels[peak_at..].iter().position(|p| p.1 <= floor + FLOOR_MARGIN_DB).map(|i| i + peak_at);
     let target = peak - FALL_DB;
     if let Some(i) = levels[peak_at..].iter().position(|p| p.1 <= target) {
         return Some((levels[i + peak_at].0, false));
     }
-    let from = levels[peak_at..].iter().position(|p| p.1 <= peak - 10.0)? + peak_at;
+    // The line is fitted over the last two seconds before the floor (or the
+    // end): a piano's decay is double, and the late one is what goes on.
+    let first = levels[peak_at..].iter().position(|p| p.1 <= peak - 10.0)? + peak_at;
     let to = stop.unwrap_or(levels.len());
+    let late = levels[..to].iter().position(|p| p.0 >= levels[to.max(1) - 1].0 - 2.0).unwrap_or(0);
+    let from = first.max(late);
     if to < from + 4 {
         return None;
     }
@@ -883,6 +925,13 @@ mod tests {
         let y: Vec<f64> = x.iter().zip(&floor).map(|(a, b)| a + b).collect();
         let (t, extrapolated) = fall_time(&y, 0, FS).unwrap();
         assert!((t - 4.0).abs() < 0.3 && extrapolated, "{t}");
+        // A double decay cut off before it falls 40 dB: 30 dB/s, then a
+        // part 20 dB down at 4 dB/s, which falls 40 dB at 5 s.
+        let fast = stiff_note(440.0, 0.0, 4.0, 0.0, |_| 30.0);
+        let slow = stiff_note(523.25, 0.0, 4.0, 0.0, |_| 4.0);
+        let z: Vec<f64> = fast.iter().zip(&slow).map(|(a, b)| a + 0.1 * b).collect();
+        let (t, extrapolated) = fall_time(&z, 0, FS).unwrap();
+        assert!((t - 5.0).abs() < 0.3 && extrapolated, "{t}");
     }
 
     #[test]

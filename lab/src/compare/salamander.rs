@@ -153,10 +153,13 @@ pub fn decode_ogg(path: &Path) -> Result<Decoded, String> {
     let channels = usize::from(reader.ident_hdr.audio_channels);
     let sample_rate_hz = reader.ident_hdr.audio_sample_rate;
     let mut samples = Vec::new();
-    while let Some(packet) =
-        reader.read_dec_packet_itl().map_err(|e| format!("{}: damaged Vorbis: {e}", path.display()))?
+    // Decoded to floats: 16-bit samples would lay a quantisation floor over
+    // the codec's own (far lower) one, hiding where it cut the spectrum.
+    while let Some(packet) = reader
+        .read_dec_packet_generic::<lewton::samples::InterleavedSamples<f32>>()
+        .map_err(|e| format!("{}: damaged Vorbis: {e}", path.display()))?
     {
-        samples.extend(packet.iter().map(|&s| f32::from(s) / 32768.0));
+        samples.extend(packet.samples);
     }
     if channels == 0 || samples.is_empty() {
         return Err(format!("{}: no audio", path.display()));

@@ -47,6 +47,9 @@ const MAX_FIT_PARTIALS: usize = 25;
 /// Highest partial frequency fitted for B, Hz (above, the bridge's and the
 /// longitudinal modes' influence shift partials off the stiff-string series).
 const MAX_FIT_HZ: f64 = 8_000.0;
+/// Largest B a fit may give (a piano's top strings reach a few hundredths;
+/// three partials found in noise can give anything).
+const MAX_B: f64 = 0.05;
 /// A spectral peak counts as a partial this far above its neighbourhood, dB.
 const PEAK_PROMINENCE_DB: f64 = 10.0;
 
@@ -383,7 +386,7 @@ impl Analyzer {
             }
             let fitted = fit_stiff_series(&peaks);
             match fitted {
-                Some((f, bb, u)) if bb.is_finite() && (-1e-3..0.5).contains(&bb) && (f_lo..=f_hi).contains(&f) => {
+                Some((f, bb, u)) if (-1e-3..=MAX_B).contains(&bb) && (f_lo..=f_hi).contains(&f) => {
                     f0 = f;
                     b = bb.max(0.0);
                     used = u;

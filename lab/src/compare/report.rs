@@ -93,9 +93,32 @@ pub struct Take {
     pub measured_s: f64,
     pub recording: Features,
     /// Each compared source: its features, or why it has none.
+    #[serde(serialize_with = "features_or_error")]
     pub sources: BTreeMap<Source, Result<Features, String>>,
     /// Each compared source's errors against the recording.
     pub errors: BTreeMap<Source, BTreeMap<Feature, Option<f64>>>,
+}
+
+/// A source's features as JSON: the features, or {"error": why}.
+fn features_or_error<S: serde::Serializer>(
+    sources: &BTreeMap<Source, Result<Features, String>>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    #[derive(Serialize)]
+    #[serde(untagged)]
+    enum Shown<'a> {
+        Measured(&'a Features),
+        Failed { error: &'a str },
+    }
+    serializer.collect_map(sources.iter().map(|(s, f)| {
+        (
+            s,
+            match f {
+                Ok(f) => Shown::Measured(f),
+                Err(e) => Shown::Failed { error: e },
+            },
+        )
+    }))
 }
 
 /// max(r, 1/r) of two positive values.
@@ -514,6 +537,11 @@ mod tests {
         assert!(!summary[&Feature::Dynamics].contains_key(&Source::FaustStk));
         let table = table(&summary, &BTreeMap::from([(Source::FaustStk, "no faust".to_string())]));
         assert!(table[1].contains("2.00 [2.00] 4") && table[1].contains("not available"), "{}", table[1]);
+
+        let json = serde_json::to_value(&takes[0]).unwrap();
+        assert_eq!(json["sources"]["fluid"]["error"], "not run");
+        assert_eq!(json["sources"]["struck"]["level_db"], takes[0].sources[&Source::Struck].as_ref().unwrap().level_db);
+        assert_eq!(json["errors"]["struck"]["dynamics"], 6.0);
 
         let mut csv = Vec::new();
         write_csv(&mut csv, &takes).unwrap();

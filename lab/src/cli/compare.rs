@@ -168,6 +168,13 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
     let compared: Vec<Source> = Source::COMPARED.into_iter().filter(|s| !unavailable.contains_key(s)).collect();
 
     let pairs: Vec<(u8, u8)> = plan.keys.iter().flat_map(|&k| plan.layers.iter().map(move |&l| (k, l))).collect();
+    say(format!(
+        "{} recordings measured, then played by {} and measured, on {} job{}",
+        pairs.len(),
+        compared.iter().map(|s| s.title()).collect::<Vec<_>>().join(", "),
+        plan.jobs,
+        if plan.jobs == 1 { "" } else { "s" }
+    ));
     let bar = progress(&args.quiet, (pairs.len() * (1 + compared.len())) as u64);
     let tick = || {
         if let Some(bar) = &bar {

@@ -333,6 +333,41 @@ pub fn checks(takes: &[Take]) -> Vec<String> {
         let fitted: usize = fs.iter().map(|f| f.decay_early_db_s.iter().flatten().count()).sum();
         format!("{grow} of {fitted}")
     }));
+    // The softest layer's level re the loudest's, note by note.
+    let layers: Vec<u8> =
+        takes.iter().map(|t| t.layer).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    if let (Some(&soft), Some(&loud)) = (layers.first(), layers.last())
+        && soft != loud
+    {
+        let cells: String = present
+            .iter()
+            .map(|&s| {
+                let spans: Vec<f64> = takes
+                    .iter()
+                    .filter(|t| t.layer == soft)
+                    .filter_map(|t| {
+                        let l = takes.iter().find(|u| u.key == t.key && u.layer == loud)?;
+                        Some(of(t, s)?.level_db - of(l, s)?.level_db)
+                    })
+                    .collect();
+                let text = match (
+                    median(&spans),
+                    spans.iter().copied().reduce(f64::min),
+                    spans.iter().copied().reduce(f64::max),
+                ) {
+                    (Some(m), Some(lo), Some(hi)) => format!("{m:.1} ({lo:.0} to {hi:.0})"),
+                    _ => "-".into(),
+                };
+                format!("{text:>20}")
+            })
+            .collect();
+        let title = format!(
+            "level v{} re v{}: median dB (range)",
+            takes.iter().find(|t| t.layer == soft).map_or(0, |t| t.velocity),
+            takes.iter().find(|t| t.layer == loud).map_or(0, |t| t.velocity)
+        );
+        lines.push(format!("{title:<42}{cells}"));
+    }
     lines.push(row("fall times extrapolated", &|fs| {
         format!("{} of {}", fs.iter().filter(|f| f.fall_extrapolated).count(), fs.len())
     }));

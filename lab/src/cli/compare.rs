@@ -291,10 +291,10 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
         }
         console::out("");
         console::out(format!(
-            "{} notes x {} layers, {} sources in {:.0} s on {} job{}",
-            plan.keys.len(),
-            plan.layers.len(),
-            compared.len(),
+            "{} x {}, {} in {:.0} s on {} job{}",
+            super::render::count(plan.keys.len(), "note"),
+            super::render::count(plan.layers.len(), "layer"),
+            super::render::count(compared.len(), "source"),
             wall_s,
             plan.jobs,
             if plan.jobs == 1 { "" } else { "s" }

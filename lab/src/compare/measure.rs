@@ -252,7 +252,16 @@ impl Analyzer {
             Some((t, e)) => (Some(t), e),
             None => (None, false),
         };
-        let attack_noise_db = self.attack_noise(signal, at(ATTACK_SPAN_S.0), at(ATTACK_SPAN_S.1), fs, f0, fit.b, band);
+        // The attack's window has the same length whatever the onset: what
+        // would come before the file's start is silence.
+        let attack: Vec<f64> = {
+            let from = onset as isize + (ATTACK_SPAN_S.0 * fs).round() as isize;
+            let len = ((ATTACK_SPAN_S.1 - ATTACK_SPAN_S.0) * fs).round() as isize;
+            (from..from + len)
+                .map(|i| usize::try_from(i).ok().and_then(|i| signal.get(i)).copied().unwrap_or(0.0))
+                .collect()
+        };
+        let attack_noise_db = self.attack_noise(&attack, 0, attack.len(), fs, f0, fit.b, band);
         let boom_share = {
             let s = self.hann_spectrum(signal, onset, at(BOOM_SPAN_S), 4, fs);
             let total = s.band(10.0, band);
@@ -897,21 +906,35 @@ mod tests {
         let n = (0.5 * fs) as usize;
         let tone = stiff_note(440.0, 0.0, 0.5, 0.0, |_| 0.0);
         let tone_power = tone.iter().map(|x| x * x).sum::<f64>() / n as f64;
+        // The tone alone: what its abrupt start spreads off the partials.
+        let clean = Analyzer::new().measure(&tone, fs, &context(440.0, 0.5)).attack_noise_db.unwrap();
+        let clean_share = 10f64.powf(clean / 10.0);
+        assert!(clean < -20.0, "{clean}");
         for noise_db in [-20.0, -10.0, 0.0] {
             let noise_power = tone_power * 10f64.powf(noise_db / 10.0);
             let a = (3.0 * noise_power).sqrt();
             let x: Vec<f64> = tone.iter().zip(noise(n, a, 7)).map(|(t, w)| t + w).collect();
             let f = Analyzer::new().measure(&x, fs, &context(440.0, 0.5));
-            // Expected: the noise off the partials' main lobes over everything.
+            // Expected: the noise off the partials' main lobes, and the
+            // tone's own spread, over everything.
             let window_s = ATTACK_SPAN_S.1 - ATTACK_SPAN_S.0;
             let lobe = 2.0 / window_s;
             let off_share = (1.0 - 2.0 * lobe / 440.0).max(0.0);
             let noise_off = noise_power * off_share * (20_000.0 - 20.0) / (0.5 * fs);
             let total = tone_power + noise_power * (20_000.0 - 20.0) / (0.5 * fs);
+            let noise_off = noise_off + clean_share * tone_power;
             let expected = 10.0 * (noise_off / total).log10();
             let measured = f.attack_noise_db.unwrap();
             assert!((measured - expected).abs() < 1.5, "noise {noise_db} dB: {measured:.1} dB, not {expected:.1}");
         }
+        // A note that starts at the file's first sample is measured over the
+        // same window as one that starts later.
+        let late: Vec<f64> = std::iter::repeat_n(0.0, 4800).chain(tone.iter().copied()).collect();
+        let early = Analyzer::new().measure(&tone, fs, &context(440.0, 0.5)).attack_noise_db.unwrap();
+        let later = Analyzer::new().measure(&late, fs, &context(440.0, 0.6)).attack_noise_db.unwrap();
+        assert!((early - later).abs() < 1.0, "{early} {later}");
+        let low = stiff_note(185.0, 0.0, 0.5, 0.0, |_| 0.0);
+        assert!(Analyzer::new().measure(&low, fs, &context(185.0, 0.5)).attack_noise_db.is_some());
         // A note too low for the window to separate its partials has none.
         let x = stiff_note(55.0, 0.0, 0.5, 0.0, |_| 0.0);
         assert!(Analyzer::new().measure(&x, fs, &context(55.0, 0.5)).attack_noise_db.is_none());

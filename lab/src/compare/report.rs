@@ -288,8 +288,8 @@ pub fn table(
         let cells: String = Source::COMPARED
             .iter()
             .map(|s| {
-                let text = if unavailable.contains_key(s) {
-                    "not available".to_string()
+                let text = if let Some(why) = unavailable.get(s) {
+                    if why.starts_with("left out") { "left out" } else { "not available" }.to_string()
                 } else {
                     cell(feature, summary.get(&feature).and_then(|m| m.get(s)))
                 };

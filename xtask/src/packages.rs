@@ -23,6 +23,8 @@ pub enum Probe {
     PkgConfig(&'static str),
     /// A Python that can create a virtual environment with pip in it.
     PythonVenv,
+    /// A file at this path (a package of data, such as a SoundFont).
+    File(&'static str),
 }
 
 /// One Debian package and what it provides.
@@ -96,6 +98,15 @@ pub const TEST: &[Need] = &[
         packages: &[pkg("python3", Probe::Command("python3")), pkg("python3-venv", Probe::PythonVenv)],
         why: "Python with venv and pip, to load the VST3 in pedalboard",
         enough_if: Some(Probe::PythonVenv),
+    },
+    Need {
+        packages: &[
+            pkg("fluidsynth", Probe::Command("fluidsynth")),
+            pkg("fluid-soundfont-gm", Probe::File("/usr/share/sounds/sf2/FluidR3_GM.sf2")),
+            pkg("faust", Probe::Command("faust")),
+        ],
+        why: "FluidSynth with the FluidR3_GM SoundFont, and the Faust compiler for the STK piano: the yardsticks of `struck compare`",
+        enough_if: None,
     },
 ];
 
@@ -176,6 +187,7 @@ fn probe(probe: Probe) -> bool {
                     .status()
                     .is_ok_and(|s| s.success())
         }
+        Probe::File(path) => std::path::Path::new(path).is_file(),
     }
 }
 
@@ -316,11 +328,36 @@ mod tests {
     #[test]
     fn a_python_that_makes_venvs_needs_no_packages() {
         let absent = missing(TEST, |_| false, |p| p == Probe::PythonVenv);
-        assert_eq!(missing_names(&absent), ["xvfb", "x11-utils", "imagemagick", "xdotool", "jackd2", "ardour"]);
+        assert_eq!(
+            missing_names(&absent),
+            [
+                "xvfb",
+                "x11-utils",
+                "imagemagick",
+                "xdotool",
+                "jackd2",
+                "ardour",
+                "fluidsynth",
+                "fluid-soundfont-gm",
+                "faust"
+            ]
+        );
         let absent = missing(TEST, |_| false, |_| false);
         assert_eq!(
             missing_names(&absent),
-            ["xvfb", "x11-utils", "imagemagick", "xdotool", "jackd2", "ardour", "python3", "python3-venv"]
+            [
+                "xvfb",
+                "x11-utils",
+                "imagemagick",
+                "xdotool",
+                "jackd2",
+                "ardour",
+                "python3",
+                "python3-venv",
+                "fluidsynth",
+                "fluid-soundfont-gm",
+                "faust"
+            ]
         );
     }
 

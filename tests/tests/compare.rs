@@ -1,0 +1,86 @@
+//! `struck compare` refuses bad arguments before it fetches, renders or
+//! writes anything: exit status 2, one line naming the argument, no cache
+//! made, no file written. (The comparison itself needs the recordings from
+//! the network; its measurements are tested on synthetic signals in the lab.)
+
+use std::path::Path;
+
+use struck_tests::{stderr, stdout, struck};
+
+/// Run `struck compare` with `extra` and a cache and JSON output in a fresh
+/// folder; it must be refused naming `named`, leaving the folder as it was.
+fn refused(extra: &[&str], named: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("file"), b"a file, not a folder").unwrap();
+    let cache = dir.path().join("cache");
+    let json = dir.path().join("out.json");
+    let mut args = vec!["compare", "--cache", cache.to_str().unwrap(), "--json", json.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let out = struck(&args);
+    let message = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{extra:?}: {message}");
+    assert_eq!(message.lines().count(), 1, "one line: {message:?}");
+    assert!(message.starts_with("struck compare: ") || message.starts_with("struck: "), "{message:?}");
+    assert!(message.contains(named), "{message:?} should name {named}");
+    assert!(stdout(&out).is_empty());
+    let left: Vec<String> =
+        std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(left, ["file"], "{extra:?} left {left:?}");
+}
+
+#[test]
+fn an_unknown_layer_is_refused() {
+    refused(&["--layers", "4,17"], "--layers");
+    refused(&["--layers", "0"], "--layers");
+    refused(&["--layers", "soft"], "--layers");
+}
+
+#[test]
+fn a_bad_note_name_is_refused() {
+    refused(&["--notes", "C4,H9"], "--notes");
+    refused(&["--notes", "C4,"], "--notes");
+}
+
+#[test]
+fn a_note_that_was_not_recorded_is_refused() {
+    refused(&["--notes", "C#4"], "not recorded");
+}
+
+#[test]
+fn bad_jobs_and_outputs_are_refused() {
+    refused(&["--jobs", "0"], "--jobs");
+    refused(&["--jobs", "-3"], "--jobs");
+    refused(&["--output", "wood"], "--output");
+}
+
+#[test]
+fn an_unwritable_output_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("file");
+    std::fs::write(&file, b"x").unwrap();
+    let cache = dir.path().join("cache");
+    for (flag, path) in [("--json", file.join("out.json")), ("--csv", file.join("out.csv"))] {
+        let out = struck(&["compare", "--cache", cache.to_str().unwrap(), flag, path.to_str().unwrap()]);
+        let message = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{message}");
+        assert_eq!(message.lines().count(), 1, "{message:?}");
+        assert!(message.contains("is not a folder"), "{message:?}");
+        assert!(!cache.exists(), "nothing fetched");
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+    // A cache that is a file.
+    let out = struck(&["compare", "--cache", file.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--cache"), "{}", stderr(&out));
+    assert!(Path::new(&file).is_file());
+}
+
+#[test]
+fn the_help_names_the_recordings_and_the_yardsticks() {
+    let help = stdout(&struck(&["compare", "--help"]));
+    for expected in
+        ["Salamander", "CC BY 3.0", "FluidR3", "Faust-STK", "--layers", "--notes", "--jobs", "--json", "--csv"]
+    {
+        assert!(help.contains(expected), "compare --help lacks {expected}: {help}");
+    }
+}

@@ -36,7 +36,8 @@ use clap::{Parser, Subcommand};
     long_about = "Struck computes struck strings from physics, not samples: a stiff string as a \
                   set of exactly stepped modes, excited by a piano hammer or santoor mallet \
                   (felt or spring, solved implicitly at every step), a clavichord tangent, or a \
-                  pluck. The output is the force the string exerts on the bridge.",
+                  pluck. The strings drive the instrument's body (its soundboard's modes), heard \
+                  through a pair of microphones; the force on the bridge can be heard instead.",
     arg_required_else_help = true
 )]
 struct Cli {

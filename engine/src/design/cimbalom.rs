@@ -47,7 +47,7 @@ use super::common::{
     flexible_tension_n, pan, struck_peak_n, unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m,
     with_losses, wound_mass_per_length_kg_m,
 };
-use super::{DamperDesign, ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{DamperDesign, ExciterDesign, KeyDesign, TouchRange, VelocityCurve, Voicing, key_frequency_hz};
 use crate::exciter::hammer::Hysteresis;
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::Damping;
@@ -56,7 +56,7 @@ use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 
 /// Beater speeds from a soft touch to a hard stroke, m/s (the santoor's range).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

@@ -47,7 +47,7 @@ use super::common::{
     COPPER_DENSITY_KG_M3, Level, Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, detuned_hz, pan, struck_peak_n,
     unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses, wound_mass_per_length_kg_m,
 };
-use super::{ExciterDesign, KeyDesign, SharedKey, TouchRange, Voicing, key_frequency_hz};
+use super::{ExciterDesign, KeyDesign, SharedKey, TouchRange, VelocityCurve, Voicing, key_frequency_hz};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
@@ -56,7 +56,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 50..=86;
 
 /// Hammer speeds from a soft touch to a hard stroke, m/s (the santoor's: the same
 /// light hammers and wrist strokes).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
+pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

@@ -153,18 +153,49 @@ impl Touch {
 }
 
 /// The softest and hardest touch velocity maps onto (velocity 1 and 127 at the
-/// default curve), in the unit the instrument's exciter is played in.
-///
-/// At the default controls a velocity v (0..=1) plays min (max / min)^(v^curve):
-/// even steps in the log of the speed (or lift) for `curve` 1, the middle
-/// velocities raised toward the hard end for a `curve` under 1 (the player's own
-/// curve, `Controls::touch_shape`, multiplies it).
+/// default curve), in the unit the instrument's exciter is played in, and how
+/// the velocities between spread over it ([`VelocityCurve`]; the player's own
+/// curve, `Controls::touch_shape`, raises velocity to its power first).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TouchRange {
     /// Exciter speeds, m/s.
-    Speed { min_m_s: f64, max_m_s: f64, curve: f64 },
+    Speed { min_m_s: f64, max_m_s: f64, curve: VelocityCurve },
     /// Plectrum lifts, mm (an even log scale).
     PluckHeight { min_mm: f64, max_mm: f64 },
+}
+
+/// How a velocity v (0..=1) is spread over a touch range from min to max.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VelocityCurve {
+    /// min (max / min)^(v^exponent): even steps in the log of the speed for an
+    /// exponent of 1, the middle velocities raised toward the hard end under 1.
+    LogPower(f64),
+    /// max v: the speed in proportion to velocity, never under min (which the
+    /// softest velocities all play).
+    Proportional,
+}
+
+impl VelocityCurve {
+    /// How far up a range whose max / min is e^`span` velocity `v` plays, on
+    /// the range's log scale (0 at min, 1 at max).
+    pub fn share(self, v: f64, span: f64) -> f64 {
+        let v = v.clamp(0.0, 1.0);
+        match self {
+            VelocityCurve::LogPower(exponent) => v.powf(exponent),
+            VelocityCurve::Proportional if v <= 0.0 => 0.0,
+            VelocityCurve::Proportional => (1.0 + v.ln() / span.max(f64::MIN_POSITIVE)).clamp(0.0, 1.0),
+        }
+    }
+
+    /// The velocity that plays `share` of the way up (the inverse of
+    /// [`Self::share`]).
+    pub fn velocity(self, share: f64, span: f64) -> f64 {
+        let share = share.clamp(0.0, 1.0);
+        match self {
+            VelocityCurve::LogPower(exponent) => share.powf(1.0 / exponent),
+            VelocityCurve::Proportional => ((share - 1.0) * span).exp(),
+        }
+    }
 }
 
 /// Where an instrument's level scale is measured: this share of the way up its
@@ -173,12 +204,23 @@ pub enum TouchRange {
 pub const LEVEL_SHARE: f64 = 0.7;
 
 impl TouchRange {
-    /// The exponent velocity is raised to before it is spread over the range.
-    pub fn curve(self) -> f64 {
+    /// How velocity spreads over the range.
+    pub fn curve(self) -> VelocityCurve {
         match self {
             TouchRange::Speed { curve, .. } => curve,
-            TouchRange::PluckHeight { .. } => 1.0,
+            TouchRange::PluckHeight { .. } => VelocityCurve::LogPower(1.0),
         }
+    }
+
+    /// The natural log of max / min.
+    pub fn span(self) -> f64 {
+        let (min, max) = self.bounds();
+        (max / min).ln()
+    }
+
+    /// How far up the range's log scale velocity `v` (0..=1) plays.
+    pub fn share(self, v: f64) -> f64 {
+        self.curve().share(v, self.span())
     }
 
     /// The touch each key's ringing is evened at ([`LEVEL_SHARE`] of the way up).
@@ -189,7 +231,7 @@ impl TouchRange {
 
     /// The velocity (0..=1) that plays [`Self::level_touch`] at the default controls.
     pub fn level_velocity(self) -> f64 {
-        LEVEL_SHARE.powf(1.0 / self.curve())
+        self.curve().velocity(LEVEL_SHARE, self.span())
     }
 
     /// The softest touch.

@@ -21,26 +21,29 @@ use std::sync::OnceLock;
 
 use super::common::{FELT_HYSTERESIS, Level, Losses, Table, damper, pan};
 use super::scale::Scale;
-use super::{KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{KeyDesign, TouchRange, VelocityCurve, Voicing, key_frequency_hz};
 
 pub(super) const KEYS: RangeInclusive<u8> = 21..=108;
 
 /// Hammer speeds from pianissimo to fortissimo (Boutillon 1988 measured 0.11 to
-/// 6.83 m/s), m/s, and the curve between them: velocity is what grand pianos
-/// that record their players write for each hammer's speed. Goebl's map for the
-/// Bosendorfer SE (MIDI velocity = 52 + 25 log2 of the speed in m/s; his thesis,
-/// 2003) and a fit to a Yamaha Disklavier's (57.96 + 71.3 log10; Goebl and
-/// Bresin, 2001) put velocity 64 at 1.4 and 1.2 m/s, 80 at 2.2 and 2.0, 100 at
-/// 3.8 and 3.9 (both read second-hand); the curve 0.72 is the least-squares fit
-/// in the log of the speed to their geometric mean over velocities 25-110
-/// (within 12 % of it from 20 to 100), its ends kept at Boutillon's extremes,
-/// which both maps overshoot at 127 (8 and 9.3 m/s). An even log scale (curve 1)
-/// had played velocities 20-110 1.3 to 1.8 times too slowly: 80 at 1.45 m/s,
-/// under the 1.5-2.5 m/s a mezzo-forte key's 0.3-0.5 m/s gives the hammer
-/// (Askenfelt and Jansson's key speeds, the hammer about 5 times as fast).
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: TOUCH_CURVE };
-/// The velocity curve of [`TOUCH`] (see there).
-const TOUCH_CURVE: f64 = 0.72;
+/// 6.83 m/s), m/s, and how velocity spreads over them: the speed in proportion
+/// to velocity, 7 m/s at 127, never under 0.1 m/s (velocities 1 and 2).
+///
+/// What a velocity means is a convention between a keyboard and what it plays,
+/// not a property of the piano. Grand pianos that record their players write
+/// velocity as the log of the hammer's speed (Goebl's map for the Bosendorfer
+/// SE, 52 + 25 log2 of the speed in m/s, and a fit to a Yamaha Disklavier's,
+/// 57.96 + 71.3 log10: velocity 40 at 0.7 and 0.6 m/s, 124 at 7 and 8 m/s),
+/// about 20 dB of speed between them. The recorded Yamaha C5 of `struck
+/// compare` spreads its layers far less: its level is close to proportional
+/// to velocity (at 12 notes from A0 to C7, re velocity 124: 13 at -20.8 dB,
+/// 30 at -14.3, 40 at -10.7, 60 at -7.1, 92 at -4.6, 108 at -2.5; 20 log10
+/// of the velocity ratio gives -19.6, -12.3, -9.8, -6.3, -2.6, -1.2), and so
+/// is a hammer's sound to its speed (the felt's stiffening adds some 10 %).
+/// The piano follows the recording, whose layers are how keyboard players
+/// hear a sampled grand; the Touch controls reach a wider range.
+pub(crate) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::Proportional };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 7.0;
 

@@ -21,7 +21,7 @@ use super::common::{
     Level, Losses, STEEL_DENSITY_KG_M3, STEEL_MODULUS_PA, Table, detuned_hz, flexible_tension_n, pan, struck_peak_n,
     unison_cents, voiced_law, voiced_position, wire_mass_per_length_kg_m, with_losses,
 };
-use super::{ExciterDesign, KeyDesign, TouchRange, Voicing, key_frequency_hz};
+use super::{ExciterDesign, KeyDesign, TouchRange, VelocityCurve, Voicing, key_frequency_hz};
 use crate::exciter::hammer::contact::ContactLaw;
 use crate::string::damping::Damping;
 use crate::string::{Mass, Stiffness, StringSpec, Tuning};
@@ -30,7 +30,7 @@ pub(super) const KEYS: RangeInclusive<u8> = 52..=89;
 
 /// Mallet speeds from a soft touch to a hard stroke, m/s (Woodhouse's examples
 /// use 1 m/s; a wrist stroke with a light mallet reaches a few m/s).
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: 1.0 };
+pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

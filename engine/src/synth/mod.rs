@@ -130,7 +130,7 @@ pub struct Controls {
     /// range, on a logarithmic scale.
     pub touch_min: f64,
     pub touch_max: f64,
-    /// Velocity curve exponent on the instrument's own curve
+    /// Velocity curve exponent, raised before the instrument's own curve
     /// ([`TouchRange::curve`]): 1 as built, above 1 needs a harder touch.
     pub touch_shape: f64,
     /// Most keys sounding at once.
@@ -210,7 +210,7 @@ impl Controls {
         let span = (max / min).ln();
         let lo = self.touch_min.clamp(0.0, 1.0);
         let hi = self.touch_max.clamp(0.0, 1.0);
-        let v = self.played_velocity(velocity).powf(self.touch_shape.clamp(0.1, 10.0) * range.curve());
+        let v = range.share(self.played_velocity(velocity).powf(self.touch_shape.clamp(0.1, 10.0)));
         range.with(min * (span * (lo + (hi - lo) * v)).exp())
     }
 }

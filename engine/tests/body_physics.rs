@@ -1,8 +1,9 @@
 //! Checks of the body model against published measurements (sources in the
 //! README's "The body" and in engine/src/body/boards.rs). Run with `cargo test -- --nocapture` to see the printed numbers.
 
-use struck_engine::body::boards::{BodyDesign, design};
+use struck_engine::body::boards::{BOARD_LOSS_FACTOR, BodyDesign, design};
 use struck_engine::body::plate::{self, log_mean_abs_mobility, mean_mobility, modal_density};
+use struck_engine::body::radiation::radiation_loss_factor;
 use struck_engine::design::InstrumentKind;
 
 /// Modes carried explicitly for the mobility checks, Hz.
@@ -44,17 +45,31 @@ fn piano_modal_density_at_500_hz() {
     println!("piano modes: < 1 kHz {}, < 5 kHz {}, < 10 kHz {}", below(1000.0), below(5000.0), below(10_000.0));
 }
 
-/// Ege et al. 2013: loss factor about 2.3 % (1-3 %). Every plate mode is within
-/// 1-3 %, and the Q stays under 100 (design notes 7: "Q <= 100 above 200 Hz").
+/// Ege et al. 2013: loss factor about 2.3 % (1-3 %), close to what the wood
+/// alone loses. Every plate mode loses the wood's 1-3 %, and on top what it
+/// radiates: a mode that keeps its volume radiates as a piston while the
+/// board is smaller than the sound's wavelength (the piano's (1, 1) mode at
+/// 80 Hz more than the wood takes, the harpsichord's light board's 0.11), the
+/// others little. The Q stays between 7 and 100 (design notes 7: "Q <= 100
+/// above 200 Hz").
 #[test]
-fn loss_factor_is_about_two_percent() {
+fn loss_factor_is_about_two_percent_and_what_it_radiates() {
     for i in InstrumentKind::ALL {
         let d = design(i);
         for m in d.modes(5000.0).iter().filter(|m| !m.is_air()) {
-            assert!((0.01..=0.03).contains(&m.loss_factor), "{i:?}");
-            assert!(1.0 / m.loss_factor <= 100.0);
+            let radiated = radiation_loss_factor(&d.plate, m);
+            assert!((0.0..0.12).contains(&radiated), "{i:?} ({}, {}): {radiated}", m.m, m.n);
+            assert!((0.01..=0.03).contains(&(m.loss_factor - radiated)), "{i:?}");
+            assert!((7.0..=100.0).contains(&(1.0 / m.loss_factor)), "{i:?}: Q {}", 1.0 / m.loss_factor);
         }
     }
+    let piano = design(InstrumentKind::Piano);
+    let modes = piano.modes(500.0);
+    let piston = modes.iter().find(|m| m.m == 1 && m.n == 1).unwrap();
+    let dipole = modes.iter().find(|m| m.m == 2 && m.n == 1).unwrap();
+    let (a, b) = (radiation_loss_factor(&piano.plate, piston), radiation_loss_factor(&piano.plate, dipole));
+    println!("piano (1, 1) at {:.0} Hz radiates eta {a:.4}, (2, 1) {b:.4}", piston.frequency_hz);
+    assert!(a > BOARD_LOSS_FACTOR && b < 0.3 * a, "{a} {b}");
 }
 
 /// Skudrzyk's mean-value theorem (Ege & Boutillon 2012 apply it to the piano):

@@ -12,6 +12,7 @@ use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
 use super::plate::{self, BodyMode, Boundary, Plate, Ribs, Wood};
+use super::radiation::radiation_loss_factor;
 use crate::design::InstrumentKind;
 use crate::string::damping::AIR_DENSITY_KG_M3;
 
@@ -245,9 +246,13 @@ impl BodyDesign {
     }
 
     /// The body's modes up to `max_hz`: plate modes plus the air mode (if any, and
-    /// if below `max_hz`), sorted by frequency.
+    /// if below `max_hz`), sorted by frequency. A plate mode loses what the
+    /// wood takes and what it radiates ([`radiation_loss_factor`]).
     pub fn modes(&self, max_hz: f64) -> Vec<BodyMode> {
         let mut list = plate::modes(&self.plate, max_hz);
+        for mode in &mut list {
+            mode.loss_factor += radiation_loss_factor(&self.plate, mode);
+        }
         if let Some(air) = self.air.map(|a| a.mode(&self.plate)).filter(|m| m.frequency_hz <= max_hz) {
             list.push(air);
             list.sort_by(|p, q| p.frequency_hz.total_cmp(&q.frequency_hz));

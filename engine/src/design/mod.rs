@@ -84,6 +84,15 @@ impl InstrumentKind {
         matches!(self, InstrumentKind::Santoor | InstrumentKind::Dulcimer | InstrumentKind::Cimbalom)
     }
 
+    /// Whether the microphones hear the keyboard's balance as the strings and
+    /// the body make it (every key bearing on the body with one gain per
+    /// newton), rather than each key voiced to ring at the instrument's level
+    /// scale. The piano, measured against a recorded grand whose level falls
+    /// some 18 dB from the bass to the top, is heard as built.
+    pub fn heard_as_built(self) -> bool {
+        matches!(self, InstrumentKind::Piano)
+    }
+
     /// Exciter speeds (or pluck heights) that velocity 1 and 127 map to by default.
     pub fn touch_range(self) -> TouchRange {
         match self {

@@ -703,7 +703,7 @@ fn voice_through_body(
     let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
     body.soundboard.silence();
     let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 }, rings }
+    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 }, peak, rings }
 }
 
 /// A key voiced through the body: how much louder than its bridge-force gain
@@ -713,9 +713,25 @@ fn voice_through_body(
 pub(super) struct Voiced {
     pub level: f64,
     pub peak_cut: f64,
+    /// The loudest strike's peak through the body at `level`, full scale.
+    pub peak: f64,
     /// Its ring power through the body by touch, before its regulation
     /// (empty: not regulated).
     pub rings: Vec<(f64, f64)>,
+}
+
+impl Voiced {
+    /// Bear on the body at `level` instead, and with the cut its peak then needs.
+    pub fn relevel(&mut self, level: f64) {
+        let peak = self.peak * level / self.level.max(f64::MIN_POSITIVE);
+        let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
+        *self = Voiced {
+            level,
+            peak,
+            peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 },
+            rings: std::mem::take(&mut self.rings),
+        };
+    }
 }
 
 /// The share of keys whose peak sets the instrument's headroom: the rest are

@@ -381,6 +381,18 @@ impl Instrument {
             voiced.extend(workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
             voiced
         });
+        if settings.kind.heard_as_built() {
+            // Every key bears on the body with the middle key's gain per newton
+            // of bridge force: the microphones hear the keyboard's balance as
+            // the strings and the body make it.
+            let middle = board.middle_key();
+            let per_n = voiced.iter().find(|v| v.0 == middle).map(|v| v.2.level * v.1.output_gain_per_n());
+            if let Some(per_n) = per_n.filter(|g| *g > 0.0 && g.is_finite()) {
+                for (_, key, v) in &mut voiced {
+                    v.relevel(per_n / key.output_gain_per_n().max(f64::MIN_POSITIVE));
+                }
+            }
+        }
         let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
         voiced.sort_by_key(|v| v.0);
         body_voicing::even_out(&mut voiced, &frequencies_hz, headroom, range);

@@ -509,13 +509,41 @@ mod tests {
         }
     }
 
+    /// Not a check: prints, key by key, what the piano's level table should
+    /// hold (`cargo test --release -p struck-engine --lib measure_piano_level
+    /// -- --ignored --nocapture`): the ringing at a gain of exactly 1 / peak_n,
+    /// and how far the loudest touch's peak lies over the estimate.
+    #[test]
+    #[ignore]
+    fn measure_piano_level() {
+        let kind = InstrumentKind::Piano;
+        let level = &piano::LEVEL;
+        let settings = default_settings(kind, SAMPLE_RATE_HZ).heard_through(crate::body::Output::BridgeForce);
+        let (mut synth, _) = Synth::new(Box::new(Instrument::build(&settings).unwrap()));
+        synth.set_controls(crate::synth::Controls { output: crate::body::Output::BridgeForce, ..Default::default() });
+        for key in kind.key_range() {
+            let (d, course_keys) = course(kind, key);
+            let applied = level.course_gain_per_n(&course_keys, 1.0, d.pan);
+            let (ringing, _) =
+                ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity() as f32, false);
+            let (_, peak) = ringing_and_peak_dbfs(&mut synth, key, 1.0, false);
+            let gain_db = 20.0 * applied.log10();
+            println!(
+                "LEVEL {key} ring_db {:.2} peak_excess_db {:.2}",
+                ringing - gain_db,
+                peak - gain_db - 20.0 * louder_channel(d.pan).log10()
+            );
+        }
+    }
+
     #[test]
     fn ringing_is_even_and_the_loudest_touch_peaks_under_minus_1_dbfs() {
         // From these keys up the ringing may fall more than 3 dB short of the
-        // target, where the peak ceiling holds the gain down (Level): G5 on the
-        // piano, the santoor and the cimbalom, C5 on the fortepiano, D5 on the dulcimer.
+        // target, where the peak ceiling holds the gain down (Level): F#5 on the
+        // piano, G5 on the santoor and the cimbalom, C5 on the fortepiano, D5 on
+        // the dulcimer.
         let cases = [
-            (InstrumentKind::Piano, &piano::LEVEL, 79),
+            (InstrumentKind::Piano, &piano::LEVEL, 78),
             (InstrumentKind::Fortepiano, &fortepiano::LEVEL, 72),
             (InstrumentKind::Santoor, &santoor::LEVEL, 79),
             (InstrumentKind::Dulcimer, &dulcimer::LEVEL, 74),

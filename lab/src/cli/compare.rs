@@ -15,6 +15,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use struck_engine::body::Output;
+use struck_engine::preset::Preset;
 
 use super::output::Staged;
 use crate::cli::Failure;
@@ -55,6 +56,10 @@ pub struct CompareArgs {
     /// (the strings' force on the bridge).
     #[arg(long, value_name = "mics|bridge", default_value = "mics")]
     pub output: String,
+    /// Play Struck with this preset (its instrument, voicing, tuning and
+    /// controls) instead of the default piano.
+    #[arg(long, value_name = "FILE")]
+    pub preset: Option<PathBuf>,
     /// Leave out FluidR3_GM and Faust-STK.
     #[arg(long)]
     pub no_yardsticks: bool,
@@ -79,6 +84,7 @@ struct Plan {
     output: Output,
     jobs: usize,
     cache: PathBuf,
+    preset: Preset,
 }
 
 fn plan(args: &CompareArgs) -> Result<Plan, Failure> {
@@ -104,7 +110,11 @@ fn plan(args: &CompareArgs) -> Result<Plan, Failure> {
     if cache.exists() && !cache.is_dir() {
         return Err(Failure::bad_input(format!("--cache {}: is not a folder", super::shown(&cache))));
     }
-    Ok(Plan { keys, layers, output, jobs, cache })
+    let preset = match &args.preset {
+        Some(path) => Preset::load(path).map_err(|e| Failure::bad_input(e.to_string()))?,
+        None => Preset::default(),
+    };
+    Ok(Plan { keys, layers, output, jobs, cache, preset })
 }
 
 /// A recording decoded and measured.
@@ -206,9 +216,14 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
                     let r = &references[i];
                     let velocity = layer_velocity(r.layer);
                     let rendered = match source {
-                        Source::Struck => {
-                            sources::render_struck(r.key, velocity, r.render_s, plan.output, SAMPLE_RATE_HZ)
-                        }
+                        Source::Struck => sources::render_struck(
+                            &plan.preset,
+                            r.key,
+                            velocity,
+                            r.render_s,
+                            plan.output,
+                            SAMPLE_RATE_HZ,
+                        ),
                         Source::Fluid => sources::render_fluid(r.key, velocity, r.render_s, SAMPLE_RATE_HZ),
                         Source::FaustStk => match &faust {
                             Some(f) => f.render(r.key, velocity, r.render_s, SAMPLE_RATE_HZ),

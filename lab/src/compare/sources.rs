@@ -60,14 +60,21 @@ impl Source {
     }
 }
 
-/// Render `key` at `velocity` (1-127) on Struck's piano (the default preset,
-/// heard through `output`), held for `seconds`: the mono sum.
-pub fn render_struck(key: u8, velocity: u8, seconds: f64, output: Output, fs: f64) -> Result<Vec<f64>, String> {
-    let preset = Preset::default();
+/// Render `key` at `velocity` (1-127) on Struck as `preset` sets it (the
+/// default preset is the piano), heard through `output`, held for `seconds`:
+/// the mono sum.
+pub fn render_struck(
+    preset: &Preset,
+    key: u8,
+    velocity: u8,
+    seconds: f64,
+    output: Output,
+    fs: f64,
+) -> Result<Vec<f64>, String> {
     let mut controls = preset.controls;
     controls.output = output;
     let settings = preset.settings(fs);
-    let instrument = Instrument::build(&settings).map_err(|e| format!("cannot build the piano: {e}"))?;
+    let instrument = Instrument::build(&settings).map_err(|e| format!("cannot build the instrument: {e}"))?;
     let (mut synth, _scope) = Synth::new(Box::new(instrument));
     synth.set_controls(controls);
     let total = (seconds * fs).round() as usize;
@@ -346,7 +353,7 @@ mod tests {
     #[test]
     fn struck_plays_the_note_it_is_given() {
         let fs = 48_000.0;
-        let out = render_struck(69, 92, 0.5, Output::BridgeForce, fs).unwrap();
+        let out = render_struck(&Preset::default(), 69, 92, 0.5, Output::BridgeForce, fs).unwrap();
         assert_eq!(out.len(), 24_000);
         assert!(out.iter().any(|&x| x != 0.0));
         let f = super::super::measure::Analyzer::new().measure(

@@ -56,7 +56,8 @@ use crate::string::{Mass, Stiffness, StringSpec, Tuning};
 pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 
 /// Beater speeds from a soft touch to a hard stroke, m/s (the santoor's range).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
+pub(super) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

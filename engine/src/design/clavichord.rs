@@ -57,7 +57,8 @@ pub(super) const KEYS: RangeInclusive<u8> = 36..=88;
 /// 1 - exp(-t V0 / D), so 0.1 m/s (the quiet note of the comparison in
 /// `engine/tests/seed_clavichord.rs`) is 92 % of the way after 50 ms, and 1 m/s
 /// is as far after 5 ms.
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
+pub(super) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 1.0;
 

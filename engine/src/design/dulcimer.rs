@@ -56,7 +56,8 @@ pub(super) const KEYS: RangeInclusive<u8> = 50..=86;
 
 /// Hammer speeds from a soft touch to a hard stroke, m/s (the santoor's: the same
 /// light hammers and wrist strokes).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
+pub(super) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

@@ -44,7 +44,8 @@ pub(super) const KEYS: RangeInclusive<u8> = 29..=91;
 
 /// Hammer speeds from pianissimo to fortissimo, m/s (assumed: a Viennese key
 /// falls about 6 mm, against a modern key's 10, and is far lighter).
-pub(super) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
+pub(super) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.1, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

@@ -30,7 +30,8 @@ pub(super) const KEYS: RangeInclusive<u8> = 52..=89;
 
 /// Mallet speeds from a soft touch to a hard stroke, m/s (Woodhouse's examples
 /// use 1 m/s; a wrist stroke with a light mallet reaches a few m/s).
-pub(crate) const TOUCH: TouchRange = TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
+pub(crate) const TOUCH: TouchRange =
+    TouchRange::Speed { min_m_s: 0.3, max_m_s: TOP_SPEED_M_S, curve: VelocityCurve::LogPower(1.0) };
 /// The hardest touch: the fastest the exciter meets the string, m/s.
 const TOP_SPEED_M_S: f64 = 4.0;
 

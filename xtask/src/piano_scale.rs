@@ -1,5 +1,6 @@
-//! `cargo xtask piano-scale`: the per-key scales of the piano and the fortepiano,
-//! written to `engine/data/piano-scale.csv` and `engine/data/fortepiano-scale.csv`.
+//! `cargo xtask piano-scale`: the per-key scales of the piano, the fortepiano and
+//! the seed's Broadwood, written to `engine/data/piano-scale.csv`,
+//! `engine/data/fortepiano-scale.csv` and `engine/data/broadwood-scale.csv`.
 //!
 //! The engine reads those files as data; this module is how they are made, so the
 //! rules can be read, checked and changed, and the files regenerated rather than
@@ -36,7 +37,10 @@
 //! The piano is Euphonics 12.2's Broadwood baby grand: its C-string table
 //! (Euphonics 12.2.1, Table 1), its stringing (17 single wound strings, 13 wound
 //! pairs, 58 plain triplets) and the Chaigne & Askenfelt (1994) felt of the C2, C4
-//! and C7 hammers. The fortepiano is a Viennese grand after Anton Walter, c. 1795
+//! and C7 hammers. The seed's lab strikes the Broadwood's C strings and draws its
+//! stringing (Figs. 8-10) from a scale of its own, `broadwood-scale.csv`, by the
+//! same rules, so that the piano can be rescaled without changing the seed's
+//! experiments. The fortepiano is a Viennese grand after Anton Walter, c. 1795
 //! (Germanisches Nationalmuseum MINe 109: compass FF-g''', knee levers, triple
 //! stringing in the treble); where no measurement of it could be found its rules
 //! say so.
@@ -51,6 +55,7 @@ use anyhow::{Context, Result};
 /// Where the files go, from the workspace root.
 pub const PIANO_PATH: &str = "engine/data/piano-scale.csv";
 pub const FORTEPIANO_PATH: &str = "engine/data/fortepiano-scale.csv";
+pub const BROADWOOD_PATH: &str = "engine/data/broadwood-scale.csv";
 
 /// A wire's material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -431,12 +436,11 @@ fn broadwood_packing() -> f64 {
 /// The Chaigne & Askenfelt (1994) hammers: (key, K N/m^alpha, alpha) of C2, C4, C7.
 const CHAIGNE_ASKENFELT: [(u8, f64, f64); 3] = [(36, 4.0e8, 2.3), (60, 4.5e9, 2.5), (96, 1.0e12, 3.0)];
 
-fn piano() -> Scale {
+/// The Broadwood's scale: its C-string table for lengths, impedances and the
+/// wound cores' inharmonicity.
+fn broadwood() -> Scale {
     let wound_cs: Vec<&BroadwoodC> = BROADWOOD.iter().filter(|c| c.wrap_diameter_m > 0.0).collect();
     Scale {
-        keys: 21..=108,
-        strings: &[(37, 1), (50, 2), (108, 3)],
-        plain: &[(108, STEEL)],
         wound: Some(Wound {
             last_key: 50,
             core: STEEL,
@@ -450,6 +454,20 @@ fn piano() -> Scale {
                 .collect(),
         }),
         length_m: BROADWOOD.iter().map(|c| (c.midi_key, c.length_m)).collect(),
+        ..broadwood_stringing_and_hammers()
+    }
+}
+
+/// What the piano keeps of the Broadwood: its compass, stringing, total
+/// impedance, wire step, hammers and felts. Lengths and wound cores are
+/// each scale's own (left empty here).
+fn broadwood_stringing_and_hammers() -> Scale {
+    Scale {
+        keys: 21..=108,
+        strings: &[(37, 1), (50, 2), (108, 3)],
+        plain: &[(108, STEEL)],
+        wound: None,
+        length_m: Vec::new(),
         impedance_ns_m: BROADWOOD.iter().map(|c| (c.midi_key, c.impedance_ns_m())).collect(),
         wire_step_m: 0.025e-3,
         strike_ratio: BROADWOOD.iter().map(|c| (c.midi_key, c.strike_ratio)).collect(),
@@ -457,6 +475,46 @@ fn piano() -> Scale {
         felt_exponent: CHAIGNE_ASKENFELT.iter().map(|&(k, _, a)| (k, a)).collect(),
         felt_stiffness: CHAIGNE_ASKENFELT.iter().map(|&(k, s, _)| (k, s)).collect(),
     }
+}
+
+/// The piano: for now the Broadwood itself.
+fn piano() -> Scale {
+    broadwood()
+}
+
+/// The lines of a rule's anchors, "NOTE value" joined by ", ".
+fn anchors(points: &[(u8, f64)], value: impl Fn(f64) -> String) -> String {
+    points.iter().map(|&(k, v)| format!("{} {}", note_name(k), value(v))).collect::<Vec<_>>().join(", ")
+}
+
+/// The rules both pianos share, from the impedance on.
+fn piano_common_rules() -> String {
+    let z: Vec<String> = BROADWOOD.iter().map(|c| format!("{:.2}", c.impedance_ns_m())).collect();
+    format!(
+        "\
+- Total impedance Z = 2 f (mass of the note's strings) through the Broadwood's
+  C strings (Euphonics 12.2.1, Table 1),
+  {z} N s/m,
+  smooth through the 1-2 and 2-3 string breaks as a designer makes it
+  (Euphonics 12.2 Figs. 8-10): per string mu = Z/(2 n L f), T = 2 Z L f/n.
+- Wound strings: a steel core d = (64 T L^2 B/(pi^3 E))^(1/4) for the B above,
+  rounded to 0.025 mm; a copper wrap whose outer diameter gives mu with
+  packing factor p = {p:.4} (fitted to the Broadwood's three wound Cs), rounded
+  to 0.01 mm.
+- Plain strings: steel wire giving mu, rounded to 0.025 mm (music-wire half sizes).
+- From the rounded sizes: mu, T of the stiff string tuned to f
+  (4 L^2 mu f^2 - pi^2 E I/L^2), Z = n sqrt(T mu), B = pi^2 E I/(T L^2).
+- Strike ratio: the Broadwood table's, linear between its Cs.
+- Hammer mass: the Broadwood table's, linear (12 g at C1 to 5 g at C8),
+  continued to A0.
+- Felt: Chaigne & Askenfelt's C2 (K 4e8, alpha 2.3), C4 (4.5e9, 2.5) and C7
+  (1e12, 3.0) hammers; alpha linear and log K linear, continued beyond C2 and C7.
+- Unison spread: {u:.1} cent at C4, times (f/f_C4)^{e}.",
+        z = z.join(", "),
+        p = broadwood_packing(),
+        u = UNISON_CENTS_AT_C4,
+        e = UNISON_EXPONENT,
+    )
 }
 
 fn piano_rules() -> String {
@@ -510,6 +568,38 @@ key number, log-linear unless said otherwise:
 /// The piano's file.
 pub fn piano_csv() -> String {
     csv(&piano_rules(), &piano().rows())
+}
+
+fn broadwood_rules() -> String {
+    let scale = broadwood();
+    let b =
+        anchors(&scale.wound.as_ref().expect("the Broadwood has wound strings").inharmonicity, |b| format!("{b:.2e}"));
+    format!(
+        "\
+Struck: the seed's Broadwood baby grand, key by key: the strings the seed's lab
+(`struck demo`) strikes at its Cs and draws in Figs. 8-10; the piano instrument
+does not play it. Written by `cargo xtask piano-scale` (xtask/src/piano_scale.rs,
+whose module doc gives the rules in full): edit the rules there and regenerate,
+do not edit this file.
+
+The Broadwood baby grand of Euphonics 12.2, from its C strings (Euphonics 12.2.1,
+Table 1: length, core and wrap diameters, course mass, strike ratio, hammer mass)
+and its stringing (Euphonics 12.2): A0-C#2 single wound strings (17), D2-D3 wound
+pairs (13), D#3-C8 plain steel triplets (58).
+
+Rules, per note of frequency f (A4 = 440 Hz) with n strings; interpolation is in
+key number, log-linear unless said otherwise:
+- Length L through the table's C1..C8, the C1-C2 segment continued below C1.
+- Wound strings' inharmonicity B through the table's wound Cs ({b}),
+  which the cores keep smooth.
+{common}",
+        common = piano_common_rules(),
+    )
+}
+
+/// The seed's Broadwood file.
+pub fn broadwood_csv() -> String {
+    csv(&broadwood_rules(), &broadwood().rows())
 }
 
 /// The fortepiano's wire sizes at a few keys (assumed, see the rules): key,
@@ -640,9 +730,11 @@ fn write_atomically(path: &Path, text: &str) -> Result<()> {
 
 /// `cargo xtask piano-scale`, run from the workspace root.
 pub fn run() -> Result<()> {
-    for (path, text, rows) in
-        [(PIANO_PATH, piano_csv(), piano().rows()), (FORTEPIANO_PATH, fortepiano_csv(), fortepiano().rows())]
-    {
+    for (path, text, rows) in [
+        (PIANO_PATH, piano_csv(), piano().rows()),
+        (FORTEPIANO_PATH, fortepiano_csv(), fortepiano().rows()),
+        (BROADWOOD_PATH, broadwood_csv(), broadwood().rows()),
+    ] {
         write_atomically(Path::new(path), &text)?;
         let (step, key) = largest_impedance_step(&rows);
         println!(
@@ -666,7 +758,9 @@ mod tests {
 
     #[test]
     fn the_committed_scales_are_what_the_rules_give() {
-        for (path, text) in [(PIANO_PATH, piano_csv()), (FORTEPIANO_PATH, fortepiano_csv())] {
+        for (path, text) in
+            [(PIANO_PATH, piano_csv()), (FORTEPIANO_PATH, fortepiano_csv()), (BROADWOOD_PATH, broadwood_csv())]
+        {
             assert!(committed(path) == text, "{path} is out of date: run `cargo xtask piano-scale`");
         }
     }

@@ -13,6 +13,11 @@
 //! at D3-D#3. Wound strings take their mass from core and wrap, their bending
 //! stiffness from the steel core alone.
 //!
+//! The seed's lab strikes the Broadwood's C strings from a copy of its scale,
+//! `engine/data/broadwood-scale.csv` ([`broadwood_design`]), which no instrument
+//! plays, so that the piano can be rescaled without changing the seed's
+//! experiments.
+//!
 //! What the scale does not hold is here: the losses, the dampers, the touch and
 //! the output level.
 
@@ -131,8 +136,26 @@ pub(super) fn scale() -> &'static Scale {
     SCALE.get_or_init(|| Scale::compiled_in("engine/data/piano-scale.csv", include_str!("../../data/piano-scale.csv")))
 }
 
+/// The seed's Broadwood baby grand's scale, parsed once.
+pub(super) fn broadwood_scale() -> &'static Scale {
+    static SCALE: OnceLock<Scale> = OnceLock::new();
+    SCALE.get_or_init(|| {
+        Scale::compiled_in("engine/data/broadwood-scale.csv", include_str!("../../data/broadwood-scale.csv"))
+    })
+}
+
 pub(crate) fn design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
-    let row = scale().row(midi_key).expect("the piano's scale holds every key of its compass");
+    design_on(scale(), voicing, midi_key, max_frequency_hz)
+}
+
+/// A key of the seed's Broadwood: the piano's design (losses, dampers, level)
+/// on the Broadwood's strings and hammers.
+pub(crate) fn broadwood_design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
+    design_on(broadwood_scale(), voicing, midi_key, max_frequency_hz)
+}
+
+fn design_on(scale: &Scale, voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> KeyDesign {
+    let row = scale.row(midi_key).expect("the piano's scales hold every key of its compass");
     let strings = row.strings;
     KeyDesign {
         midi_key,
@@ -178,22 +201,42 @@ mod tests {
         built(midi_key).iter().map(StringModes::impedance_ns_m).sum()
     }
 
+    /// The total impedance of the strings a key of the seed's Broadwood builds, N s/m.
+    fn broadwood_impedance_ns_m(midi_key: u8) -> f64 {
+        let d = broadwood_design(&Voicing::default(), midi_key, 20_000.0);
+        d.strings.iter().map(|s| s.build().unwrap().impedance_ns_m()).sum()
+    }
+
+    /// Euphonics 12.2.1, Table 1: key, length m, tension per string N (T/L
+    /// times L over the strings, a flexible string's), total impedance 2 f M.
+    const BROADWOOD_TABLE: [(u8, f64, f64, f64); 8] = [
+        (24, 1.013, 819.0, 12.36),
+        (36, 0.925, 1155.0, 9.55),
+        (48, 0.830, 875.0, 8.03),
+        (60, 0.639, 684.0, 6.12),
+        (72, 0.324, 626.0, 5.55),
+        (84, 0.181, 635.0, 5.02),
+        (96, 0.096, 645.0, 4.81),
+        (108, 0.051, 643.0, 4.52),
+    ];
+
     #[test]
-    fn the_scale_file_covers_the_keyboard_with_the_broadwood_stringing() {
-        let scale = scale();
-        assert_eq!(scale.keys(), KEYS);
-        let count = |n: usize| scale.rows().iter().filter(|r| r.strings == n).count();
-        assert_eq!((count(1), count(2), count(3)), (17, 13, 58));
-        for r in scale.rows() {
-            let n = match r.midi_key {
-                ..=37 => 1,
-                38..=50 => 2,
-                _ => 3,
-            };
-            assert_eq!(r.strings, n, "{r}");
-            assert_eq!(r.is_wound(), r.midi_key <= 50, "{r}");
-            assert_eq!(r.material, if r.is_wound() { "steel+copper" } else { "steel" }, "{r}");
-            assert_eq!(design(&Voicing::default(), r.midi_key, 20_000.0).strings.len(), n);
+    fn the_scale_files_cover_the_keyboard_with_the_broadwood_stringing() {
+        for scale in [scale(), broadwood_scale()] {
+            assert_eq!(scale.keys(), KEYS);
+            let count = |n: usize| scale.rows().iter().filter(|r| r.strings == n).count();
+            assert_eq!((count(1), count(2), count(3)), (17, 13, 58));
+            for r in scale.rows() {
+                let n = match r.midi_key {
+                    ..=37 => 1,
+                    38..=50 => 2,
+                    _ => 3,
+                };
+                assert_eq!(r.strings, n, "{r}");
+                assert_eq!(r.is_wound(), r.midi_key <= 50, "{r}");
+                assert_eq!(r.material, if r.is_wound() { "steel+copper" } else { "steel" }, "{r}");
+                assert_eq!(design(&Voicing::default(), r.midi_key, 20_000.0).strings.len(), n);
+            }
         }
     }
 
@@ -209,6 +252,27 @@ mod tests {
             let z = r.strings as f64 * s.impedance_ns_m();
             assert!((z / r.total_impedance_ns_m - 1.0).abs() < 1e-3, "{r}: {z} N s/m");
             assert!((s.inharmonicity / r.inharmonicity - 1.0).abs() < 1e-3, "{r}: B {}", s.inharmonicity);
+        }
+    }
+
+    #[test]
+    fn the_seeds_broadwood_has_the_c_strings_of_its_table() {
+        // Plain wire comes in 0.025 mm steps, so the tension of a plain C string
+        // is within half a step of the table's (2.5 %).
+        for (key, length_m, tension_n, impedance_ns_m) in BROADWOOD_TABLE {
+            let r = broadwood_scale().row(key).unwrap();
+            assert!((r.length_m - length_m).abs() < 1e-4, "{r}: {} m", r.length_m);
+            let f = key_frequency_hz(key);
+            let flexible_tension_n = 4.0 * r.length_m * r.length_m * r.mass_per_length_kg_m * f * f;
+            assert!((flexible_tension_n / tension_n - 1.0).abs() < 0.025, "{r}: {flexible_tension_n} N");
+            let z = broadwood_impedance_ns_m(key);
+            assert!((z / impedance_ns_m - 1.0).abs() < 0.05, "{r}: {z} N s/m");
+        }
+        // The wound Cs keep the table's core (to the nearest 0.025 mm) and wrap.
+        for (key, core_m, wrap_m) in [(24, 1.21e-3, 5.80e-3), (36, 1.21e-3, 3.76e-3), (48, 1.08e-3, 1.80e-3)] {
+            let r = broadwood_scale().row(key).unwrap();
+            assert!((r.core_diameter_m - core_m).abs() <= 0.0126e-3, "{r}: core {}", r.core_diameter_m);
+            assert!((r.wrap_diameter_m - wrap_m).abs() <= 0.05e-3, "{r}: wrap {}", r.wrap_diameter_m);
         }
     }
 

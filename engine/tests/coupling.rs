@@ -347,16 +347,27 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
                 )
             })
             .collect();
+        // The sums the products reach: the upper quartile. A sum lies
+        // f_n + f_m - f_(n+m) = -1.5 B f0 n m (n + m) from a partial, so on a
+        // string as little inharmonic as the C5's C2 (B 0.9e-4) the sums of
+        // the lower, stronger partials fall within 4 Hz of one and are left
+        // out; of the higher ones left, under half stand over the products'
+        // floor (50 dB under the loudest partial), where the spectrum is the
+        // partials' skirts. On the Broadwood's C2 (B 2.0e-4) the median
+        // reached them (54 sums; -45.7 dB re the nearest partial at velocity
+        // 64, -31.5 at 127; the upper quartile -23.5 and -5.1).
         levels.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let median = levels[levels.len() / 2];
+        let (median, upper) = (levels[levels.len() / 2], levels[levels.len() * 3 / 4]);
         println!(
-            "C2 at velocity {:.0}: {} sums away from the partials; median {:.1} dB re the nearest partial, {:.1} dB over the plain string's spectrum there",
+            "C2 at velocity {:.0}: {} sums away from the partials; upper quartile {:.1} dB re the nearest partial, {:.1} dB over the plain string's spectrum there (median {:.1} and {:.1} dB)",
             velocity * 127.0,
             levels.len(),
+            upper.0,
+            upper.1,
             median.0,
             median.1
         );
-        ratios.push(median);
+        ratios.push(upper);
     }
     assert!(ratios[1].0 - ratios[0].0 >= 4.0, "{ratios:?}");
     assert!(ratios[1].1 >= 10.0, "at fortissimo the sums stand only {:.1} dB over the plain spectrum", ratios[1].1);

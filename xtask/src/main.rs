@@ -35,9 +35,9 @@ Usage:
       failure. --release runs them on the release build instead of the dev
       profile's (which keeps debug assertions on).
   cargo xtask piano-scale
-      Write the per-key scales of the piano and the fortepiano,
-      engine/data/piano-scale.csv and fortepiano-scale.csv, from the rules in
-      xtask/src/piano_scale.rs.
+      Write the per-key scales of the piano, the fortepiano and the seed's
+      Broadwood, engine/data/piano-scale.csv, fortepiano-scale.csv and
+      broadwood-scale.csv, from the rules in xtask/src/piano_scale.rs.
   cargo xtask bundle struck [--release]
       nice-plug's bundler: target/bundled/Struck.clap, Struck.vst3 and the
       standalone. Any command not listed here goes to nice-plug-xtask.

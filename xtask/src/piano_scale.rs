@@ -1,11 +1,12 @@
-//! `cargo xtask piano-scale`: the per-key scales of the piano and the fortepiano,
-//! written to `engine/data/piano-scale.csv` and `engine/data/fortepiano-scale.csv`.
+//! `cargo xtask piano-scale`: the per-key scales of the piano, the fortepiano and
+//! the seed's Broadwood, written to `engine/data/piano-scale.csv`,
+//! `engine/data/fortepiano-scale.csv` and `engine/data/broadwood-scale.csv`.
 //!
 //! The engine reads those files as data; this module is how they are made, so the
 //! rules can be read, checked and changed, and the files regenerated rather than
 //! edited by hand. Each file's header repeats its rules and explains its columns.
 //!
-//! Both scales are designed the way a piano maker scales an instrument: lengths
+//! The scales are designed the way a piano maker scales an instrument: lengths
 //! first (the case decides them), then the total impedance of each note's strings,
 //! which sets its loudness against the soundboard (Euphonics 12.2, Fig. 10), kept
 //! smooth along the keyboard and through the breaks where the number of strings
@@ -20,11 +21,11 @@
 //!   fall by n / n', and Z runs on.
 //! * A plain wire has the diameter that gives mu, rounded to the wire step.
 //! * A wound string (the piano's bass) has a steel core sized to keep the
-//!   inharmonicity B = pi^3 E d^4 / (64 T L^2) smooth (log-linear through the
-//!   Broadwood's wound Cs), rounded to the wire step; then a copper wrap whose
-//!   outer diameter D gives mu = rho_core pi d^2 / 4 + p rho_cu pi (D^2 - d^2) / 4,
-//!   rounded to 0.01 mm. The packing factor p (the wrap's share of solid copper)
-//!   is fitted to the Broadwood's three wound Cs.
+//!   inharmonicity B = pi^3 E d^4 / (64 T L^2) on a smooth curve (log-linear
+//!   through a few anchor notes), rounded to the wire step; then a copper wrap
+//!   whose outer diameter D gives mu = rho_core pi d^2 / 4 + p rho_cu pi (D^2 -
+//!   d^2) / 4, rounded to 0.01 mm. The packing factor p (the wrap's share of
+//!   solid copper) is fitted to the Broadwood's three wound Cs.
 //! * From the rounded sizes: mu, the tension of the stiff string tuned to f,
 //!   T = 4 L^2 mu f^2 - pi^2 E I / L^2 (E I of the core or plain wire alone),
 //!   Z = n sqrt(T mu) and B = pi^2 E I / (T L^2).
@@ -33,13 +34,40 @@
 //! lengths, impedances, inharmonicity and felt stiffness, linear for strike ratio,
 //! hammer mass and felt exponent.
 //!
-//! The piano is Euphonics 12.2's Broadwood baby grand: its C-string table
-//! (Euphonics 12.2.1, Table 1), its stringing (17 single wound strings, 13 wound
-//! pairs, 58 plain triplets) and the Chaigne & Askenfelt (1994) felt of the C2, C4
-//! and C7 hammers. The fortepiano is a Viennese grand after Anton Walter, c. 1795
-//! (Germanisches Nationalmuseum MINe 109: compass FF-g''', knee levers, triple
-//! stringing in the treble); where no measurement of it could be found its rules
-//! say so.
+//! The piano is a grand of the Yamaha C5's size (2.00 m), the instrument
+//! `struck compare` holds it against. No string table of the C5 itself could be
+//! found, so its lengths come from published measurements of grands around it
+//! and from the working stress of its wire: A0 is a Yamaha C3's (1.86 m; about
+//! 1.40 m, R. Overs, Pianotech list, 11 June 2003), C4 and C5 a Steinway M's
+//! (1.70 m, 1936; P. Stewart, PTG Pianotech, 16 October 2019: 640 and 340 mm),
+//! from C6 up the Broadwood's as before (a grand's treble is set by the wire's
+//! strength, not the case, and grands' trebles differ little: C8 48-53 mm from a
+//! Steinway B to a Yamaha C3), and the lowest plain strings are not
+//! foreshortened: from C4 down to the break (D#3) they keep C4's working stress
+//! rho (2 L f)^2 = 0.88 GPa, so the length doubles per octave (D#3 1.08 m), which
+//! a 2 m case leaves room for (our assumption: no published tenor lengths of the
+//! C5 were found). Its wound cores are sized for the inharmonicity the C5 has at
+//! A0, F#1 and A2 (measured from its recordings, docs/calibration.md), rising
+//! from A2 into the first plain string's, so B runs on through the break without
+//! a jump. The rest is the Broadwood's: its stringing (17 single wound strings,
+//! 13 wound pairs, 58 plain triplets), the total impedance of its C strings, its
+//! hammers, and the Chaigne & Askenfelt (1994) felt of the C2, C4 and C7
+//! hammers. Keeping the impedance keeps each note's course mass (M = Z / 2 f),
+//! the hammer's mass against it and the strings' push on the bridge (n T / L =
+//! 2 Z f): the longer strings change the inharmonicity and the tensions, not the
+//! strike. The tensions rise with the lengths: 0.84 kN at D#3, up to 1.6 kN on
+//! the single wound strings, whose 1.2 mm cores then work at up to 64 % of music
+//! wire's strength (ASTM A228), more than a maker would choose; a real C5 of
+//! this inharmonicity has a lighter bass, which would change the strike.
+//!
+//! The seed's Broadwood is Euphonics 12.2's baby grand: its C-string table
+//! (Euphonics 12.2.1, Table 1) for lengths, impedances and the wound cores'
+//! inharmonicity, with the same stringing, hammers and felts. The seed's lab
+//! strikes its C strings and draws its stringing (Figs. 8-10); the instruments
+//! do not play it. The fortepiano is a Viennese grand after Anton Walter, c.
+//! 1795 (Germanisches Nationalmuseum MINe 109: compass FF-g''', knee levers,
+//! triple stringing in the treble); where no measurement of it could be found
+//! its rules say so.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -51,6 +79,7 @@ use anyhow::{Context, Result};
 /// Where the files go, from the workspace root.
 pub const PIANO_PATH: &str = "engine/data/piano-scale.csv";
 pub const FORTEPIANO_PATH: &str = "engine/data/fortepiano-scale.csv";
+pub const BROADWOOD_PATH: &str = "engine/data/broadwood-scale.csv";
 
 /// A wire's material.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -431,12 +460,11 @@ fn broadwood_packing() -> f64 {
 /// The Chaigne & Askenfelt (1994) hammers: (key, K N/m^alpha, alpha) of C2, C4, C7.
 const CHAIGNE_ASKENFELT: [(u8, f64, f64); 3] = [(36, 4.0e8, 2.3), (60, 4.5e9, 2.5), (96, 1.0e12, 3.0)];
 
-fn piano() -> Scale {
+/// The Broadwood's scale: its C-string table for lengths, impedances and the
+/// wound cores' inharmonicity.
+fn broadwood() -> Scale {
     let wound_cs: Vec<&BroadwoodC> = BROADWOOD.iter().filter(|c| c.wrap_diameter_m > 0.0).collect();
     Scale {
-        keys: 21..=108,
-        strings: &[(37, 1), (50, 2), (108, 3)],
-        plain: &[(108, STEEL)],
         wound: Some(Wound {
             last_key: 50,
             core: STEEL,
@@ -450,6 +478,20 @@ fn piano() -> Scale {
                 .collect(),
         }),
         length_m: BROADWOOD.iter().map(|c| (c.midi_key, c.length_m)).collect(),
+        ..broadwood_stringing_and_hammers()
+    }
+}
+
+/// What the piano keeps of the Broadwood: its compass, stringing, total
+/// impedance, wire step, hammers and felts. Lengths and wound cores are
+/// each scale's own (left empty here).
+fn broadwood_stringing_and_hammers() -> Scale {
+    Scale {
+        keys: 21..=108,
+        strings: &[(37, 1), (50, 2), (108, 3)],
+        plain: &[(108, STEEL)],
+        wound: None,
+        length_m: Vec::new(),
         impedance_ns_m: BROADWOOD.iter().map(|c| (c.midi_key, c.impedance_ns_m())).collect(),
         wire_step_m: 0.025e-3,
         strike_ratio: BROADWOOD.iter().map(|c| (c.midi_key, c.strike_ratio)).collect(),
@@ -459,20 +501,150 @@ fn piano() -> Scale {
     }
 }
 
-fn piano_rules() -> String {
-    let b: Vec<String> = piano()
-        .wound
-        .expect("the piano has wound strings")
-        .inharmonicity
-        .iter()
-        .map(|(k, b)| format!("{} {b:.2e}", note_name(*k)))
-        .collect();
+/// A0's speaking length on the piano, m: a Yamaha C3's (1.86 m long, the C5's
+/// smaller sister), "around 140 cm" (R. Overs, Pianotech list, 11 June 2003).
+const YAMAHA_C3_A0_LENGTH_M: f64 = 1.40;
+
+/// The piano's lengths at C4 and C5, m: a Steinway M's (1.70 m; speaking
+/// lengths of a 1936 M measured by P. Stewart, PTG Pianotech list, 16 October
+/// 2019).
+const STEINWAY_M_LENGTHS_M: [(u8, f64); 2] = [(60, 0.640), (72, 0.340)];
+
+/// From this key (C6) up the lengths are the Broadwood's (C6 181 mm, C7 96, C8
+/// 51). A plain string's working stress is rho (2 L f)^2 whatever its gauge, so
+/// the treble's lengths are set by what the wire bears, not by the case, and
+/// grands' trebles differ little: C6 is 176 mm on the M above; C8 about 48 mm on
+/// a Steinway B (J. Delacour, Pianotech list, 2 April 2007), 50 mm on the M, 53
+/// mm on a Yamaha C3 (the North Bennet Street School's scale file quoted by T.
+/// Parsons, PTG, March 2026). So the undamped top (G6 up), whose strings ring
+/// with every key, keeps the strings its voicing (level table, regulation) was
+/// measured on; it is where the model is most fragile (with the M's C6-C8 a top
+/// key's ring moved by up to 4 dB, and A#7's crescendo dipped).
+const BROADWOOD_TOP_FROM_KEY: u8 = 84;
+
+/// The first plain key; from it up to C4 the strings keep C4's working stress.
+const FIRST_PLAIN_KEY: u8 = 51;
+
+/// The inharmonicity the Yamaha C5 has at A0, F#1 and A2: its lowest note, where
+/// its B stops falling and where it starts to rise into the tenor, as `struck
+/// compare` measures them on its recordings at velocity 92 (docs/calibration.md).
+/// The piano's wound cores are sized for these, and for the first plain
+/// string's above them.
+const C5_WOUND_INHARMONICITY: [(u8, f64); 3] = [(21, 2.58e-4), (30, 0.98e-4), (45, 0.80e-4)];
+
+/// The piano: a 2 m grand (see the module doc).
+fn piano() -> Scale {
+    let c4_length_m = STEINWAY_M_LENGTHS_M[0].1;
+    let mut length_m = vec![
+        (21, YAMAHA_C3_A0_LENGTH_M),
+        (FIRST_PLAIN_KEY, c4_length_m * 2f64.powf((60 - FIRST_PLAIN_KEY) as f64 / 12.0)),
+    ];
+    length_m.extend(STEINWAY_M_LENGTHS_M);
+    length_m
+        .extend(BROADWOOD.iter().filter(|c| c.midi_key >= BROADWOOD_TOP_FROM_KEY).map(|c| (c.midi_key, c.length_m)));
+    let mut scale = Scale {
+        wound: Some(Wound {
+            last_key: FIRST_PLAIN_KEY - 1,
+            core: STEEL,
+            packing: broadwood_packing(),
+            inharmonicity: C5_WOUND_INHARMONICITY.to_vec(),
+        }),
+        length_m,
+        ..broadwood_stringing_and_hammers()
+    };
+    // The cores run into the first plain string's inharmonicity (the plain
+    // strings' rules do not depend on the wound ones).
+    let first_plain = scale.row(FIRST_PLAIN_KEY).inharmonicity;
+    scale.wound.as_mut().expect("the piano has wound strings").inharmonicity.push((FIRST_PLAIN_KEY, first_plain));
+    scale
+}
+
+/// The lines of a rule's anchors, "NOTE value" joined by ", ".
+fn anchors(points: &[(u8, f64)], value: impl Fn(f64) -> String) -> String {
+    points.iter().map(|&(k, v)| format!("{} {}", note_name(k), value(v))).collect::<Vec<_>>().join(", ")
+}
+
+/// The rules both pianos share, from the impedance on.
+fn piano_common_rules() -> String {
     let z: Vec<String> = BROADWOOD.iter().map(|c| format!("{:.2}", c.impedance_ns_m())).collect();
+    format!(
+        "\
+- Total impedance Z = 2 f (mass of the note's strings) through the Broadwood's
+  C strings (Euphonics 12.2.1, Table 1),
+  {z} N s/m,
+  smooth through the 1-2 and 2-3 string breaks as a designer makes it
+  (Euphonics 12.2 Figs. 8-10): per string mu = Z/(2 n L f), T = 2 Z L f/n.
+- Wound strings: a steel core d = (64 T L^2 B/(pi^3 E))^(1/4) for the B above,
+  rounded to 0.025 mm; a copper wrap whose outer diameter gives mu with
+  packing factor p = {p:.4} (fitted to the Broadwood's three wound Cs), rounded
+  to 0.01 mm.
+- Plain strings: steel wire giving mu, rounded to 0.025 mm (music-wire half sizes).
+- From the rounded sizes: mu, T of the stiff string tuned to f
+  (4 L^2 mu f^2 - pi^2 E I/L^2), Z = n sqrt(T mu), B = pi^2 E I/(T L^2).
+- Strike ratio: the Broadwood table's, linear between its Cs.
+- Hammer mass: the Broadwood table's, linear (12 g at C1 to 5 g at C8),
+  continued to A0.
+- Felt: Chaigne & Askenfelt's C2 (K 4e8, alpha 2.3), C4 (4.5e9, 2.5) and C7
+  (1e12, 3.0) hammers; alpha linear and log K linear, continued beyond C2 and C7.
+- Unison spread: {u:.1} cent at C4, times (f/f_C4)^{e}.",
+        z = z.join(", "),
+        p = broadwood_packing(),
+        u = UNISON_CENTS_AT_C4,
+        e = UNISON_EXPONENT,
+    )
+}
+
+fn piano_rules() -> String {
+    let scale = piano();
+    let b = anchors(&scale.wound.as_ref().expect("the piano has wound strings").inharmonicity, |b| format!("{b:.2e}"));
+    let lengths = anchors(&scale.length_m, |l| format!("{:.0} mm", l * 1e3));
     format!(
         "\
 Struck: the piano's scale, key by key. Written by `cargo xtask piano-scale`
 (xtask/src/piano_scale.rs, whose module doc gives the rules in full): edit the
 rules there and regenerate, do not edit this file.
+
+A grand of the Yamaha C5's size (2.00 m) with the stringing of Euphonics 12.2's
+Broadwood: A0-C#2 single wound strings (17), D2-D3 wound pairs (13), D#3-C8
+plain steel triplets (58).
+
+Rules, per note of frequency f (A4 = 440 Hz) with n strings; interpolation is in
+key number, log-linear unless said otherwise:
+- Length L through
+  {lengths}
+  (continued beyond): A0 a Yamaha C3's (R. Overs, Pianotech list, 2003),
+  C4-C5 a Steinway M's (P. Stewart, PTG Pianotech, 2019), C6-C8 the
+  Broadwood's (Euphonics 12.2.1, Table 1; grands' trebles differ little),
+  and from C4 down to the
+  break the lengths double per octave, keeping C4's working stress
+  rho (2 L f)^2 = {stress:.2} GPa in the lowest plain strings (our assumption: no
+  published tenor lengths of the C5 were found).
+- Wound strings' inharmonicity B through
+  {b}:
+  the Yamaha C5's at A0, F#1 and A2 (from its recordings), then the first plain
+  string's, so B runs on through the break.
+{common}",
+        stress = STEEL.density_kg_m3 * (2.0 * STEINWAY_M_LENGTHS_M[0].1 * frequency_hz(60)).powi(2) / 1e9,
+        common = piano_common_rules(),
+    )
+}
+
+/// The piano's file.
+pub fn piano_csv() -> String {
+    csv(&piano_rules(), &piano().rows())
+}
+
+fn broadwood_rules() -> String {
+    let scale = broadwood();
+    let b =
+        anchors(&scale.wound.as_ref().expect("the Broadwood has wound strings").inharmonicity, |b| format!("{b:.2e}"));
+    format!(
+        "\
+Struck: the seed's Broadwood baby grand, key by key: the strings the seed's lab
+(`struck demo`) strikes at its Cs and draws in Figs. 8-10; the piano instrument
+does not play it. Written by `cargo xtask piano-scale` (xtask/src/piano_scale.rs,
+whose module doc gives the rules in full): edit the rules there and regenerate,
+do not edit this file.
 
 The Broadwood baby grand of Euphonics 12.2, from its C strings (Euphonics 12.2.1,
 Table 1: length, core and wrap diameters, course mass, strike ratio, hammer mass)
@@ -482,34 +654,16 @@ pairs (13), D#3-C8 plain steel triplets (58).
 Rules, per note of frequency f (A4 = 440 Hz) with n strings; interpolation is in
 key number, log-linear unless said otherwise:
 - Length L through the table's C1..C8, the C1-C2 segment continued below C1.
-- Total impedance Z = 2 f (mass of the note's strings) through the table's Cs,
-  {z} N s/m,
-  smooth through the 1-2 and 2-3 string breaks as a designer makes it
-  (Euphonics 12.2 Figs. 8-10): per string mu = Z/(2 n L f), T = 2 Z L f/n.
-- Wound strings: a steel core sized to keep B smooth, through the table's wound
-  Cs ({b}):
-  d = (64 T L^2 B/(pi^3 E))^(1/4), rounded to 0.025 mm; a copper wrap whose
-  outer diameter gives mu with packing factor p = {p:.4} (fitted to the three
-  wound Cs), rounded to 0.01 mm.
-- Plain strings: steel wire giving mu, rounded to 0.025 mm (music-wire half sizes).
-- From the rounded sizes: mu, T of the stiff string tuned to f
-  (4 L^2 mu f^2 - pi^2 E I/L^2), Z = n sqrt(T mu), B = pi^2 E I/(T L^2).
-- Strike ratio: the table's, linear between its Cs.
-- Hammer mass: the table's, linear (12 g at C1 to 5 g at C8), continued to A0.
-- Felt: Chaigne & Askenfelt's C2 (K 4e8, alpha 2.3), C4 (4.5e9, 2.5) and C7
-  (1e12, 3.0) hammers; alpha linear and log K linear, continued beyond C2 and C7.
-- Unison spread: {u:.1} cent at C4, times (f/f_C4)^{e}.",
-        z = z.join(", "),
-        b = b.join(", "),
-        p = broadwood_packing(),
-        u = UNISON_CENTS_AT_C4,
-        e = UNISON_EXPONENT,
+- Wound strings' inharmonicity B through the table's wound Cs ({b}),
+  which the cores keep smooth.
+{common}",
+        common = piano_common_rules(),
     )
 }
 
-/// The piano's file.
-pub fn piano_csv() -> String {
-    csv(&piano_rules(), &piano().rows())
+/// The seed's Broadwood file.
+pub fn broadwood_csv() -> String {
+    csv(&broadwood_rules(), &broadwood().rows())
 }
 
 /// The fortepiano's wire sizes at a few keys (assumed, see the rules): key,
@@ -640,9 +794,11 @@ fn write_atomically(path: &Path, text: &str) -> Result<()> {
 
 /// `cargo xtask piano-scale`, run from the workspace root.
 pub fn run() -> Result<()> {
-    for (path, text, rows) in
-        [(PIANO_PATH, piano_csv(), piano().rows()), (FORTEPIANO_PATH, fortepiano_csv(), fortepiano().rows())]
-    {
+    for (path, text, rows) in [
+        (PIANO_PATH, piano_csv(), piano().rows()),
+        (FORTEPIANO_PATH, fortepiano_csv(), fortepiano().rows()),
+        (BROADWOOD_PATH, broadwood_csv(), broadwood().rows()),
+    ] {
         write_atomically(Path::new(path), &text)?;
         let (step, key) = largest_impedance_step(&rows);
         println!(
@@ -666,7 +822,9 @@ mod tests {
 
     #[test]
     fn the_committed_scales_are_what_the_rules_give() {
-        for (path, text) in [(PIANO_PATH, piano_csv()), (FORTEPIANO_PATH, fortepiano_csv())] {
+        for (path, text) in
+            [(PIANO_PATH, piano_csv()), (FORTEPIANO_PATH, fortepiano_csv()), (BROADWOOD_PATH, broadwood_csv())]
+        {
             assert!(committed(path) == text, "{path} is out of date: run `cargo xtask piano-scale`");
         }
     }

@@ -556,6 +556,23 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
         InstrumentKind::Clavichord => clavichord::design(voicing, midi_key, max_frequency_hz)?,
         InstrumentKind::Harpsichord => harpsichord::design(voicing, midi_key, max_frequency_hz),
     };
+    Some(voiced(key, voicing))
+}
+
+/// A key of the seed's Broadwood baby grand (Euphonics 12.2's piano, whose C
+/// strings the seed's lab strikes) with `voicing`: the piano's design on the
+/// Broadwood's own scale, `engine/data/broadwood-scale.csv`. No instrument plays
+/// it. None outside the piano's compass.
+pub fn broadwood_key_design(voicing: &Voicing, midi_key: u8, max_frequency_hz: f64) -> Option<KeyDesign> {
+    InstrumentKind::Piano
+        .key_range()
+        .contains(&midi_key)
+        .then(|| voiced(piano::broadwood_design(voicing, midi_key, max_frequency_hz), voicing))
+}
+
+/// A designed key with what `voicing` does to every instrument's hammers: the
+/// strings' shares of an uneven hammer and the felt's hysteresis.
+fn voiced(key: KeyDesign, voicing: &Voicing) -> KeyDesign {
     let strike_shares = uneven_shares(&key, voicing);
     let mut key =
         KeyDesign { hammer_hysteresis: voiced_hysteresis(key.hammer_hysteresis, voicing), strike_shares, ..key };
@@ -571,7 +588,7 @@ pub fn key_design(kind: InstrumentKind, voicing: &Voicing, midi_key: u8, max_fre
         fast(&mut key.exciter);
         key.shared.iter_mut().for_each(|s| fast(&mut s.exciter));
     }
-    Some(key)
+    key
 }
 
 /// How unevenly each string of a course's unisons is met, at the voicing's

@@ -8,7 +8,6 @@ use std::time::Instant;
 use crate::strike::seed;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use struck_engine::design::InstrumentKind;
 
 use super::output::Staged;
 use crate::cli::Failure;
@@ -145,7 +144,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     let progress = bar(6, "Figures");
     let santoor = figures::santoor(out).map_err(failed)?;
     progress.inc(1);
-    let stringing = figures::stringing(InstrumentKind::Piano, out, "fig").map_err(failed)?;
+    let stringing = figures::broadwood_stringing(out, "fig").map_err(failed)?;
     progress.inc(1);
     let speeds = figures::piano_speeds(out).map_err(failed)?;
     progress.inc(1);
@@ -190,7 +189,7 @@ pub fn run(args: &DemoArgs) -> Result<(), Failure> {
     entries.push(figure("Fig. 5", "The 1 g mallet striking at 1/10 (blue) beside 2/5 (red): the same start, then the nearer bridge sends its reflection back much sooner.", &santoor[2]));
     entries.extend([sound(4), sound(5)]);
     entries.push(Entry::Heading("The piano's strings".into()));
-    entries.push(figure("Fig. 8", "Mass per unit length of one string for every key of Struck's piano (the Broadwood baby grand's scale), with the changes from one to two to three strings per note marked.", &stringing[0]));
+    entries.push(figure("Fig. 8", "Mass per unit length of one string for every key of the seed's piano (the Broadwood baby grand's scale), with the changes from one to two to three strings per note marked.", &stringing[0]));
     entries.push(figure(
         "Fig. 9",
         "Tension of one string: about 650 N for the plain steel strings, a sawtooth for the wound ones.",

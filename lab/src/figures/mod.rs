@@ -157,9 +157,18 @@ fn breaks(rows: &[Stringing], low: f64, high: f64) -> Vec<Series> {
 
 /// Figs. 8-10: mass per length, tension and total impedance per key of `kind`.
 pub fn stringing(kind: InstrumentKind, dir: &Path, prefix: &str) -> anyhow::Result<Vec<Drawn>> {
-    let rows = seed::stringing(kind);
-    anyhow::ensure!(!rows.is_empty(), "the {} has no strings of its own", kind.name());
-    let name = kind.name();
+    stringing_of(&seed::stringing(kind), kind.name(), dir, prefix)
+}
+
+/// Figs. 8-10 of the seed: the stringing of its Broadwood baby grand (drawn as
+/// the piano's, the files named so).
+pub fn broadwood_stringing(dir: &Path, prefix: &str) -> anyhow::Result<Vec<Drawn>> {
+    stringing_of(&seed::broadwood_stringing(), InstrumentKind::Piano.name(), dir, prefix)
+}
+
+/// Figs. 8-10 of `rows`, the stringing of the instrument called `name`.
+fn stringing_of(rows: &[Stringing], name: &str, dir: &Path, prefix: &str) -> anyhow::Result<Vec<Drawn>> {
+    anyhow::ensure!(!rows.is_empty(), "the {name} has no strings of its own");
     type Column = fn(&Stringing) -> f64;
     let figures: [(&str, &str, &str, &str, Scale, Column); 3] = [
         ("8", "mass-per-length", "mass per length of one string", "mass per length (g/m)", Scale::Log, |r| {
@@ -175,17 +184,14 @@ pub fn stringing(kind: InstrumentKind, dir: &Path, prefix: &str) -> anyhow::Resu
         let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.midi_key as f64, value(r))).collect();
         let (low, high) = points.iter().fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.1), h.max(p.1)));
         let mut all = vec![Series::markers(what, Colour::BLUE, MarkerShape::Circle, points)];
-        all.extend(breaks(&rows, if y_scale == Scale::Log { low } else { 0.0 }, high * 1.05));
+        all.extend(breaks(rows, if y_scale == Scale::Log { low } else { 0.0 }, high * 1.05));
         let mut p = plot(format!("Fig. {number}: {name}, {what}"), "MIDI key (60 = C4)", y_label, all);
         p.y_scale = y_scale;
         if y_scale == Scale::Linear {
             p.y_range = Some((0.0, high * 1.1));
         }
-        let file = if prefix == "fig" {
-            format!("fig{number:0>2}-{}-{slug}", kind.name())
-        } else {
-            format!("{prefix}-{}-{slug}", kind.name())
-        };
+        let file =
+            if prefix == "fig" { format!("fig{number:0>2}-{name}-{slug}") } else { format!("{prefix}-{name}-{slug}") };
         drawn.push(draw_line(&p, dir, &file)?);
     }
     Ok(drawn)

@@ -7,12 +7,15 @@
 //!
 //! A piano course (one, two or three strings in unison) is simulated as the seed
 //! does: one string carrying the course's total tension and mass, struck by the
-//! whole hammer. Its strings are the piano instrument's (the Broadwood's C
-//! strings, [`struck_engine::design`]), tuned exactly to equal temperament at
-//! A4 = 440 Hz with a uniform Q of 2000, as in the seed's simulations.
+//! whole hammer. Its strings are the Broadwood's C strings, from the seed's own
+//! Broadwood scale ([`struck_engine::design::broadwood_key_design`]; the piano
+//! instrument is scaled as a larger grand), tuned exactly to equal temperament
+//! at A4 = 440 Hz with a uniform Q of 2000, as in the seed's simulations.
 
 use crate::strike::case::{ExciterSpec, StrikeCase};
-use struck_engine::design::{ExciterDesign, InstrumentKind, KeyDesign, Voicing, key_design, key_frequency_hz};
+use struck_engine::design::{
+    ExciterDesign, InstrumentKind, KeyDesign, Voicing, broadwood_key_design, key_design, key_frequency_hz,
+};
 use struck_engine::exciter::hammer::HammerSpec;
 use struck_engine::exciter::hammer::contact::ContactLaw;
 use struck_engine::exciter::pluck::PluckSpec;
@@ -131,12 +134,11 @@ pub fn course_string(key: &KeyDesign, damping: Damping, max_frequency_hz: f64) -
     })
 }
 
-/// The piano's key as the seed plays it: its felt elastic, as the book's
+/// The Broadwood's key as the seed plays it: its felt elastic, as the book's
 /// hammers are (F = K C^alpha with the designs' measured laws).
 fn piano_key(midi_key: u8) -> KeyDesign {
     let elastic = Voicing { felt_hysteresis: 0.0, ..Voicing::default() };
-    key_design(InstrumentKind::Piano, &elastic, midi_key, MAX_FREQUENCY_HZ)
-        .expect("the piano has every C from C1 to C8")
+    broadwood_key_design(&elastic, midi_key, MAX_FREQUENCY_HZ).expect("the Broadwood has every C from C1 to C8")
 }
 
 /// The piano's C string of `octave` (1-8): the whole course as one string, Q 2000.
@@ -293,20 +295,29 @@ pub struct Stringing {
 
 /// The stringing of every key of `kind` that has strings of its own, lowest first.
 pub fn stringing(kind: InstrumentKind) -> Vec<Stringing> {
-    kind.key_range()
-        .filter_map(|midi_key| {
-            let key = key_design(kind, &Voicing::default(), midi_key, MAX_FREQUENCY_HZ)?;
-            let built = key.strings.first()?.build().ok()?;
-            let strings = key.strings.len();
-            Some(Stringing {
-                midi_key,
-                strings,
-                mass_per_length_kg_m: built.mass_per_length_kg_m,
-                tension_n: built.tension_n,
-                total_impedance_ns_m: built.impedance_ns_m() * strings as f64,
-            })
+    stringing_of(kind.key_range(), |k| key_design(kind, &Voicing::default(), k, MAX_FREQUENCY_HZ))
+}
+
+/// The stringing of the seed's Broadwood (Euphonics 12.2, Figs. 8-10), lowest first.
+pub fn broadwood_stringing() -> Vec<Stringing> {
+    stringing_of(InstrumentKind::Piano.key_range(), |k| broadwood_key_design(&Voicing::default(), k, MAX_FREQUENCY_HZ))
+}
+
+/// The stringing of `keys` designed by `design`, skipping keys without strings of their own.
+fn stringing_of(keys: impl Iterator<Item = u8>, design: impl Fn(u8) -> Option<KeyDesign>) -> Vec<Stringing> {
+    keys.filter_map(|midi_key| {
+        let key = design(midi_key)?;
+        let built = key.strings.first()?.build().ok()?;
+        let strings = key.strings.len();
+        Some(Stringing {
+            midi_key,
+            strings,
+            mass_per_length_kg_m: built.mass_per_length_kg_m,
+            tension_n: built.tension_n,
+            total_impedance_ns_m: built.impedance_ns_m() * strings as f64,
         })
-        .collect()
+    })
+    .collect()
 }
 
 #[cfg(test)]
@@ -350,6 +361,14 @@ mod tests {
         assert_eq!((c2.mass_kg, c2.law.stiffness, c2.law.exponent), (11.0e-3, 4.0e8, 2.3));
         let c7 = piano_c_hammer(7, 1.0);
         assert_eq!((c7.mass_kg, c7.law.stiffness, c7.law.exponent), (6.0e-3, 1.0e12, 3.0));
+        // Figs. 8-10 draw the same Broadwood, every key of it.
+        let rows = broadwood_stringing();
+        assert_eq!(rows.len(), 88);
+        for octave in 1..=8u8 {
+            let row = rows.iter().find(|r| r.midi_key == piano_c_key(octave)).unwrap();
+            let z = built(&piano_c_string(octave, true)).impedance_ns_m();
+            assert!((row.total_impedance_ns_m / z - 1.0).abs() < 0.02, "C{octave}: {} N s/m", row.total_impedance_ns_m);
+        }
         // Sound 10's strings are harmonic.
         assert_eq!(built(&piano_c_string(1, false)).inharmonicity, 0.0);
         // The C4 hammer on the C2 string strikes where C2's hammer would.

@@ -138,14 +138,16 @@ pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
     }
     let k = omega / SOUND_SPEED_M_S;
     // Lobes a quarter of their width apart, at least 16 steps from the pole
-    // to the horizon and twice as many round it.
+    // to the horizon and as finely round it. |I(-beta)| = |I(beta)| (the
+    // shapes are real), so a quarter of the way round gives the whole.
     let lobes = k * plate.length_m.max(plate.width_m) / PI + f64::from(mode.m.max(mode.n));
     let steps = ((4.0 * lobes).ceil() as usize).clamp(16, MAX_RADIATION_STEPS);
-    let (dt, df) = (0.5 * PI / steps as f64, PI / steps as f64);
+    let round = steps.div_ceil(2);
+    let (dt, df) = (0.5 * PI / steps as f64, 0.5 * PI / round as f64);
     let mut integral = 0.0;
     for i in 0..steps {
         let sin_t = ((i as f64 + 0.5) * dt).sin();
-        let ring: f64 = (0..2 * steps)
+        let ring: f64 = (0..round)
             .map(|j| {
                 let (sin_f, cos_f) = ((j as f64 + 0.5) * df).sin_cos();
                 (side_integral(mode.m, plate.length_m, k * sin_t * cos_f)
@@ -153,7 +155,7 @@ pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
                 .norm_sqr()
             })
             .sum();
-        integral += ring * sin_t * dt * df;
+        integral += 4.0 * ring * sin_t * dt * df;
     }
     let eta = AIR_DENSITY_KG_M3 * omega / (4.0 * PI * PI * SOUND_SPEED_M_S * mode.modal_mass_kg) * integral;
     if cache.len() >= RADIATED_KEPT {

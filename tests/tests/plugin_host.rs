@@ -296,7 +296,10 @@ fn plays_a_held_note_reports_its_end_and_round_trips_its_state() {
         let params: PluginParams = handle.get_extension().unwrap();
         params.flush(&mut handle, &changes.as_input(), &mut EventBuffer::new().as_output());
     }
-    let sizes = vec![BLOCK; (4.5 * FS) as usize / BLOCK];
+    // Long enough for the key to end: the undamped treble it set ringing
+    // moves its damped strings through the bridge for some seconds after the
+    // damper falls.
+    let sizes = vec![BLOCK; (17.0 * FS) as usize / BLOCK];
     let block_at = |seconds: f64| (seconds * FS) as usize / BLOCK;
     let mut script: Script = Vec::new();
     let mut first = EventBuffer::new();
@@ -644,8 +647,9 @@ fn a_notes_pan_expression_places_it_in_the_stereo_image() {
     // hard left reaches the right channel only as the undamped treble's
     // answer, placed where the instrument has it. Struck at the level scale's
     // touch (1.96 m/s; the treble's answer grows faster than the note with
-    // the touch, and at velocity 0.7, 2.68 m/s, it reaches the far channel
-    // 39.5 dB under the note).
+    // the touch). The close pair hears the treble bridge's end, where those
+    // strings bear, from 0.7 m: 42.7 dB under the note on the left, 36.6 on
+    // the right.
     let Some(path) = bundle() else { return };
     let loaded = Loaded::new(&path);
     let velocity = struck_engine::design::InstrumentKind::Piano.touch_range().level_velocity();
@@ -666,8 +670,8 @@ fn a_notes_pan_expression_places_it_in_the_stereo_image() {
     eprintln!(
         "C4 in the middle: left {l:.1} dB, right {r:.1}; pan 0 (left): {hl:.1}, {hr:.1}; pan 1 (right): {rl:.1}, {rr:.1}"
     );
-    assert!((hl - l - 3.0).abs() < 0.5 && hr < hl - 40.0, "hard left");
-    assert!((rr - r - 3.0).abs() < 0.5 && rl < rr - 40.0, "hard right");
+    assert!((hl - l - 3.0).abs() < 0.5 && hr < hl - 35.0, "hard left");
+    assert!((rr - r - 3.0).abs() < 0.5 && rl < rr - 35.0, "hard right");
 }
 
 #[test]

@@ -338,13 +338,14 @@ fn plays_a_held_note_reports_its_end_and_round_trips_its_state() {
     assert_eq!((key, note_id), (69, 7));
     assert!(when > (1.0 * FS) as usize, "the key ended at {} s, before the pedal came up", when as f64 / FS);
     // While the key sounds the plugin asks to be kept processing, and on while
-    // the body rings after it (its lowest modes take a second or two to fall
-    // to -120 dBFS); after, not, and it is silent.
+    // the body and the undamped treble it set ringing ring after it (in the
+    // clean run, the key ended at 4.9 s and all rested at 12.2 s); after, not,
+    // and it is silent.
     let ended_block = when / BLOCK;
     let rested = run.keep_alive.iter().rposition(|&k| k).map_or(0, |i| i + 1);
     assert!(run.keep_alive[block_at(0.2)..rested].iter().all(|&k| k), "kept alive while sounding");
     assert!(
-        rested > ended_block && rested < block_at(when as f64 / FS + 3.0),
+        rested > ended_block && rested < block_at(when as f64 / FS + 10.0),
         "the body rests {rested} (key ended {ended_block})"
     );
     assert!(run.keep_alive[rested..].iter().all(|&k| !k), "released once silent");

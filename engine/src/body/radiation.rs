@@ -20,7 +20,7 @@
 //! lobes nearest the microphone outweigh the far ones, and a 1.5 kHz mode of
 //! the piano's board is heard 15 dB louder from 0.7 m above its middle than
 //! the far field's formula says, while its (1, 1) piston is heard alike
-//! (`engine/src/body/radiation.rs` tests).
+//! (this file's tests).
 
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -114,9 +114,9 @@ pub fn pressure_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPositio
 ///
 /// so eta = rho omega / (4 pi^2 c M) ∫ |I_m I_n|^2 dOmega. A mode that keeps a
 /// net volume radiates as a piston while the sound's wavelength is longer than
-/// the board, the piano's (1, 1) mode at 80 Hz some three times what the
-/// wood loses (0.06 against 0.02); the others' lobes cancel and they lose
-/// little (`tests`). The radiation's formula hears each mode through the same
+/// the board: the piano's (1, 1) mode at 80 Hz 0.0375, on top of the wood's
+/// 0.02; the others' lobes cancel and they lose little, the (2, 1) 0.0051
+/// (engine/tests/body_physics.rs). The radiation's formula hears each mode through the same
 /// baffle, so a mode that rings a microphone loses the power it sends there.
 /// Air modes radiate through their holes, not as the top: none here.
 pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {

@@ -564,7 +564,7 @@ pub(super) fn even_out(keys: &mut [(u8, &mut Key, Voiced)], pitch_hz: &[f64; 128
     let heard: Vec<Vec<(f64, f64)>> = keys
         .iter()
         .map(|(_, key, v)| {
-            let gain = v.level * v.peak_cut.min(headroom);
+            let gain = v.level * v.peak_cut().min(headroom);
             v.rings.iter().map(|&(t, r)| (t, r * (regulated(key.regulation(), t) * gain).powi(2))).collect()
         })
         .collect();
@@ -702,17 +702,15 @@ fn voice_through_body(
     key.probe(loudest, &mut force);
     let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
     body.soundboard.silence();
-    let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-    Voiced { level: voicing, peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 }, peak, rings }
+    Voiced { level: voicing, peak, rings }
 }
 
 /// A key voiced through the body: how much louder than its bridge-force gain
-/// it must bear on the body to ring where the level scale puts it, and what
-/// its loudest strike's peak then allows of that (1: all of it).
+/// it must bear on the body to ring where the level scale puts it, and how
+/// loud its loudest strike then peaks there ([`Voiced::peak_cut`]).
 #[derive(Clone, Debug)]
 pub(super) struct Voiced {
     pub level: f64,
-    pub peak_cut: f64,
     /// The loudest strike's peak through the body at `level`, full scale.
     pub peak: f64,
     /// Its ring power through the body by touch, before its regulation
@@ -721,16 +719,17 @@ pub(super) struct Voiced {
 }
 
 impl Voiced {
-    /// Bear on the body at `level` instead, and with the cut its peak then needs.
-    pub fn relevel(&mut self, level: f64) {
-        let peak = self.peak * level / self.level.max(f64::MIN_POSITIVE);
+    /// What its peak allows of its level: the cut that keeps the loudest
+    /// strike under [`MIC_PEAK_CEILING_DBFS`] (1: all of it).
+    pub fn peak_cut(&self) -> f64 {
         let ceiling = 10f64.powf(MIC_PEAK_CEILING_DBFS / 20.0);
-        *self = Voiced {
-            level,
-            peak,
-            peak_cut: if peak > ceiling { ceiling / peak } else { 1.0 },
-            rings: std::mem::take(&mut self.rings),
-        };
+        if self.peak > ceiling { ceiling / self.peak } else { 1.0 }
+    }
+
+    /// Bear on the body at `level` instead (its peak scales with it).
+    pub fn relevel(&mut self, level: f64) {
+        self.peak *= level / self.level.max(f64::MIN_POSITIVE);
+        self.level = level;
     }
 }
 

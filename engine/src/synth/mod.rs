@@ -393,11 +393,11 @@ impl Instrument {
                 }
             }
         }
-        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut).collect::<Vec<_>>());
+        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut()).collect::<Vec<_>>());
         voiced.sort_by_key(|v| v.0);
         body_voicing::even_out(&mut voiced, &frequencies_hz, headroom, range);
         for (k, key, v) in &mut voiced {
-            key.bear_on(board.zone_share(*k), v.level * v.peak_cut.min(headroom));
+            key.bear_on(board.zone_share(*k), v.level * v.peak_cut().min(headroom));
         }
         let key_count = keys.len();
         Ok(Self {

@@ -73,6 +73,21 @@ fn side_integral(m: u32, side_m: f64, beta: f64) -> Complex64 {
 /// leaves that quarter period out, never more sound below a mode's resonance
 /// than its acceleration gives).
 pub fn pressure_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
+    let key = [
+        plate.length_m,
+        plate.width_m,
+        mode.frequency_hz,
+        f64::from(mode.m),
+        f64::from(mode.n),
+        mic.x_m,
+        mic.y_m,
+        mic.height_m,
+    ];
+    HEARD.get_or(key, || rayleigh_sum(plate, mode, mic))
+}
+
+/// [`pressure_per_acceleration`], summed.
+fn rayleigh_sum(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
     let (m, n) = if mode.is_air() { (1, 1) } else { (mode.m, mode.n) };
     let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
     let (length, width) = (plate.length_m, plate.width_m);
@@ -130,39 +145,31 @@ pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
         return AIR_DENSITY_KG_M3 * SOUND_SPEED_M_S * plate.area_m2() / (4.0 * omega * mode.modal_mass_kg);
     }
     let key =
-        [plate.length_m, plate.width_m, mode.frequency_hz, mode.modal_mass_kg, f64::from(mode.m), f64::from(mode.n)]
-            .map(f64::to_bits);
-    let mut cache = RADIATED.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-    if let Some(&eta) = cache.get(&key) {
-        return eta;
-    }
-    let k = omega / SOUND_SPEED_M_S;
-    // Lobes a quarter of their width apart, at least 16 steps from the pole
-    // to the horizon and as finely round it. |I(-beta)| = |I(beta)| (the
-    // shapes are real), so a quarter of the way round gives the whole.
-    let lobes = k * plate.length_m.max(plate.width_m) / PI + f64::from(mode.m.max(mode.n));
-    let steps = ((4.0 * lobes).ceil() as usize).clamp(16, MAX_RADIATION_STEPS);
-    let round = steps.div_ceil(2);
-    let (dt, df) = (0.5 * PI / steps as f64, 0.5 * PI / round as f64);
-    let mut integral = 0.0;
-    for i in 0..steps {
-        let sin_t = ((i as f64 + 0.5) * dt).sin();
-        let ring: f64 = (0..round)
-            .map(|j| {
-                let (sin_f, cos_f) = ((j as f64 + 0.5) * df).sin_cos();
-                (side_integral(mode.m, plate.length_m, k * sin_t * cos_f)
-                    * side_integral(mode.n, plate.width_m, k * sin_t * sin_f))
-                .norm_sqr()
-            })
-            .sum();
-        integral += 4.0 * ring * sin_t * dt * df;
-    }
-    let eta = AIR_DENSITY_KG_M3 * omega / (4.0 * PI * PI * SOUND_SPEED_M_S * mode.modal_mass_kg) * integral;
-    if cache.len() >= RADIATED_KEPT {
-        cache.clear();
-    }
-    cache.insert(key, eta);
-    eta
+        [plate.length_m, plate.width_m, mode.frequency_hz, mode.modal_mass_kg, f64::from(mode.m), f64::from(mode.n)];
+    RADIATED.get_or(key, || {
+        let k = omega / SOUND_SPEED_M_S;
+        // Lobes a quarter of their width apart, at least 16 steps from the
+        // pole to the horizon and as finely round it. |I(-beta)| = |I(beta)|
+        // (the shapes are real), so a quarter of the way round gives the whole.
+        let lobes = k * plate.length_m.max(plate.width_m) / PI + f64::from(mode.m.max(mode.n));
+        let steps = ((4.0 * lobes).ceil() as usize).clamp(16, MAX_RADIATION_STEPS);
+        let round = steps.div_ceil(2);
+        let (dt, df) = (0.5 * PI / steps as f64, 0.5 * PI / round as f64);
+        let mut integral = 0.0;
+        for i in 0..steps {
+            let sin_t = ((i as f64 + 0.5) * dt).sin();
+            let ring: f64 = (0..round)
+                .map(|j| {
+                    let (sin_f, cos_f) = ((j as f64 + 0.5) * df).sin_cos();
+                    (side_integral(mode.m, plate.length_m, k * sin_t * cos_f)
+                        * side_integral(mode.n, plate.width_m, k * sin_t * sin_f))
+                    .norm_sqr()
+                })
+                .sum();
+            integral += 4.0 * ring * sin_t * dt * df;
+        }
+        AIR_DENSITY_KG_M3 * omega / (4.0 * PI * PI * SOUND_SPEED_M_S * mode.modal_mass_kg) * integral
+    })
 }
 
 /// Above this a mode's radiation is taken as its whole area's (sigma 1),
@@ -170,12 +177,39 @@ pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
 pub const INTEGRATED_BELOW_HZ: f64 = 2_000.0;
 /// The most steps [`radiation_loss_factor`] takes from the pole to the horizon.
 const MAX_RADIATION_STEPS: usize = 48;
-/// Modes' radiation already integrated, by board and mode: a body is built
-/// several times over (its running modes, the strings' bridge, the
-/// microphones' weights) and again for every rebuild of the instrument.
-static RADIATED: Mutex<BTreeMap<[u64; 6], f64>> = Mutex::new(BTreeMap::new());
-/// The most modes kept in it before it starts again.
-const RADIATED_KEPT: usize = 20_000;
+/// Figures already worked out, by what they were worked out from: a body is
+/// built several times over (its running modes, the strings' bridge, the
+/// microphones' weights) and again for every rebuild of the instrument, on
+/// the builder's thread, never the audio thread's.
+struct Memo<const N: usize>(Mutex<BTreeMap<[u64; N], f64>>);
+
+impl<const N: usize> Memo<N> {
+    const fn new() -> Self {
+        Self(Mutex::new(BTreeMap::new()))
+    }
+
+    /// The figure for `key`, worked out by `work` the first time.
+    fn get_or(&self, key: [f64; N], work: impl FnOnce() -> f64) -> f64 {
+        let key = key.map(f64::to_bits);
+        if let Some(&value) = self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).get(&key) {
+            return value;
+        }
+        let value = work();
+        let mut kept = self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if kept.len() >= MEMO_KEPT {
+            kept.clear();
+        }
+        kept.insert(key, value);
+        value
+    }
+}
+
+/// Each mode's radiation loss, by board and mode.
+static RADIATED: Memo<6> = Memo::new();
+/// Each mode's weight at a microphone, by board, mode and microphone.
+static HEARD: Memo<8> = Memo::new();
+/// The most figures a memo keeps before it starts again.
+const MEMO_KEPT: usize = 20_000;
 
 /// The grid of [`pressure_per_acceleration`]'s sum: at least this many cells
 /// a side, at most this many.

@@ -47,6 +47,16 @@ fn a_note_that_was_not_recorded_is_refused() {
 }
 
 #[test]
+fn a_preset_that_cannot_be_read_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-preset.json");
+    refused(&["--preset", missing.to_str().unwrap()], "no-such-preset.json");
+    let broken = dir.path().join("broken-preset.json");
+    std::fs::write(&broken, br#"{"name": "Broken", "voicing": {"hammer_stiffness": "hard"}}"#).unwrap();
+    refused(&["--preset", broken.to_str().unwrap()], "broken-preset.json");
+}
+
+#[test]
 fn bad_jobs_and_outputs_are_refused() {
     refused(&["--jobs", "0"], "--jobs");
     refused(&["--jobs", "-3"], "--jobs");

@@ -467,10 +467,14 @@ fn a_held_note_decays_fast_then_slowly() {
 /// turn them apart: a held note's fundamental keeps more of its level into
 /// the aftersound (and its prompt sound falls more slowly, by how much
 /// depends on which string the hammer meets hardest against the mistuning).
+/// The unisons are spread a cent at C4 here: the piano's own fifth of a
+/// cent sits within the bridge's hold, where what differs between the
+/// strings barely reaches the bridge at all.
 #[test]
 fn an_uneven_hammer_starts_the_aftersound_at_once() {
     let measure = |key: u8, unevenness: f64| {
-        let voicing = struck_engine::design::Voicing { hammer_unevenness: unevenness, ..Default::default() };
+        let voicing =
+            struck_engine::design::Voicing { hammer_unevenness: unevenness, unison_detune: 5.0, ..Default::default() };
         let settings = struck_engine::synth::InstrumentSettings {
             voicing,
             ..default_settings(InstrumentKind::Piano, FS).heard_through(Output::Microphones)
@@ -492,8 +496,8 @@ fn an_uneven_hammer_starts_the_aftersound_at_once() {
             "key {key} at velocity 80: level hammer: prompt {level_rate:.1} dB/s, 3-5 s at {level_kept:.1} dB re 0.15 s; \
              uneven: {uneven_rate:.1} dB/s, {uneven_kept:.1} dB"
         );
-        // (Measured: the fundamental at 3-5 s 3.4, 11.2 and 8.3 dB higher on
-        // C3, C4 and C5, the prompt sound 0.5, 0.3 and 13.4 dB/s slower.)
+        // (Measured: the fundamental at 3-5 s 2.9, 11.5 and 8.4 dB higher on
+        // C3, C4 and C5, the prompt sound 0.3, 0.3 and 14.0 dB/s slower.)
         assert!(uneven_kept > level_kept + 2.0, "key {key}: {uneven_kept:.1} against {level_kept:.1} dB");
     }
 }

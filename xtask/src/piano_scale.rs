@@ -167,12 +167,17 @@ struct Scale {
     /// The hammer's contact law F = K C^alpha: alpha linear and log K linear, continued.
     felt_exponent: Vec<(u8, f64)>,
     felt_stiffness: Vec<(u8, f64)>,
+    /// The widest string of a unison is this many cents off at C4, and the
+    /// spread goes as f to this power.
+    unison_cents_at_c4: f64,
+    unison_exponent: f64,
 }
 
 /// The outer diameter of a wound string's wrap is rounded to this, m.
 const WRAP_STEP_M: f64 = 1.0e-5;
 
-/// Unison spread: the widest string of a unison is this many cents off at C4...
+/// Unison spread: the widest string of a unison is this many cents off at C4
+/// (the Broadwood's and the fortepiano's)...
 const UNISON_CENTS_AT_C4: f64 = 1.0;
 /// ...and the spread goes as f^-0.2, wider in the bass where a tuner hears slow
 /// beats less, narrower in the treble where the same cents beat faster (1.3 cents
@@ -240,7 +245,7 @@ impl Scale {
         let ei = bending_stiffness_n_m2(core_m, core_material.modulus_pa);
         let tension_n = 4.0 * length_m * length_m * mu * f * f - PI * PI * ei / (length_m * length_m);
         let unison_spread_cents =
-            if n > 1 { UNISON_CENTS_AT_C4 * (f / frequency_hz(60)).powf(UNISON_EXPONENT) } else { 0.0 };
+            if n > 1 { self.unison_cents_at_c4 * (f / frequency_hz(60)).powf(self.unison_exponent) } else { 0.0 };
         Row {
             midi_key: key,
             strings: n,
@@ -498,6 +503,8 @@ fn broadwood_stringing_and_hammers() -> Scale {
         hammer_mass_kg: BROADWOOD.iter().map(|c| (c.midi_key, c.hammer_mass_kg)).collect(),
         felt_exponent: CHAIGNE_ASKENFELT.iter().map(|&(k, _, a)| (k, a)).collect(),
         felt_stiffness: CHAIGNE_ASKENFELT.iter().map(|&(k, s, _)| (k, s)).collect(),
+        unison_cents_at_c4: UNISON_CENTS_AT_C4,
+        unison_exponent: UNISON_EXPONENT,
     }
 }
 
@@ -532,6 +539,28 @@ const FIRST_PLAIN_KEY: u8 = 51;
 /// string's above them.
 const C5_WOUND_INHARMONICITY: [(u8, f64); 3] = [(21, 2.58e-4), (30, 0.98e-4), (45, 0.80e-4)];
 
+/// The piano's unison spread at C4, cents: a fifth of the Broadwood's.
+/// Tuners leave unisons within about 1-2 cents (R. E. Kirk, JASA 31, 1959,
+/// 1644-1648), but the Yamaha C5's recorded partials fall without beating
+/// (2 of 629 fits over 0.3-2 s grow, `struck compare`): its unisons sit
+/// where the bridge holds a unison's strings together (G. Weinreich, JASA
+/// 62, 1977, 1474-1484: below a mistuning of about 2 Re(eps), one pitch and
+/// a double decay instead of beats; 1-2 cents at the fundamentals from the
+/// tenor up, less on the upper partials). At the Broadwood's full cent the
+/// model's partials 4-7 from F#2 to C4 beat to silence within half a second
+/// and swell back (117 of 705 fits grew); docs/calibration.md has the sweep.
+const PIANO_UNISON_CENTS_AT_C4: f64 = 0.2;
+/// ...and the piano's spread widens as f^0.5 up the treble (0.1 cent at D2,
+/// 0.5 at G6, 0.8 at C8): a tuning pin turned by the same small angle moves
+/// a short string's pitch by more cents (the strain it changes is a larger
+/// share of the string's), and the treble's unisons are the hardest to set
+/// and to keep (our assumption: no measured spread by register was at
+/// hand). Held a fifth of a cent all the way up, the treble's strings ring
+/// on a C4 played staccato 13 dB more faintly than tuned this way (-83
+/// against -64 dB at velocity 38), and the top octave's held notes, all
+/// prompt sound, fall 40 dB in 0.2-0.5 of the recording's time.
+const PIANO_UNISON_EXPONENT: f64 = 0.5;
+
 /// The piano: a 2 m grand (see the module doc).
 fn piano() -> Scale {
     let c4_length_m = STEINWAY_M_LENGTHS_M[0].1;
@@ -550,6 +579,8 @@ fn piano() -> Scale {
             inharmonicity: C5_WOUND_INHARMONICITY.to_vec(),
         }),
         length_m,
+        unison_cents_at_c4: PIANO_UNISON_CENTS_AT_C4,
+        unison_exponent: PIANO_UNISON_EXPONENT,
         ..broadwood_stringing_and_hammers()
     };
     // The cores run into the first plain string's inharmonicity (the plain
@@ -564,8 +595,9 @@ fn anchors(points: &[(u8, f64)], value: impl Fn(f64) -> String) -> String {
     points.iter().map(|&(k, v)| format!("{} {}", note_name(k), value(v))).collect::<Vec<_>>().join(", ")
 }
 
-/// The rules both pianos share, from the impedance on.
-fn piano_common_rules() -> String {
+/// The rules both pianos share, from the impedance on, with the scale's
+/// unison spread.
+fn piano_common_rules(unison_cents_at_c4: f64, unison_exponent: f64) -> String {
     let z: Vec<String> = BROADWOOD.iter().map(|c| format!("{:.2}", c.impedance_ns_m())).collect();
     format!(
         "\
@@ -586,11 +618,11 @@ fn piano_common_rules() -> String {
   continued to A0.
 - Felt: Chaigne & Askenfelt's C2 (K 4e8, alpha 2.3), C4 (4.5e9, 2.5) and C7
   (1e12, 3.0) hammers; alpha linear and log K linear, continued beyond C2 and C7.
-- Unison spread: {u:.1} cent at C4, times (f/f_C4)^{e}.",
+- Unison spread: {u:.2} cent at C4, times (f/f_C4)^{e}.",
         z = z.join(", "),
         p = broadwood_packing(),
-        u = UNISON_CENTS_AT_C4,
-        e = UNISON_EXPONENT,
+        u = unison_cents_at_c4,
+        e = unison_exponent,
     )
 }
 
@@ -625,7 +657,7 @@ key number, log-linear unless said otherwise:
   string's, so B runs on through the break.
 {common}",
         stress = STEEL.density_kg_m3 * (2.0 * STEINWAY_M_LENGTHS_M[0].1 * frequency_hz(60)).powi(2) / 1e9,
-        common = piano_common_rules(),
+        common = piano_common_rules(scale.unison_cents_at_c4, scale.unison_exponent),
     )
 }
 
@@ -657,7 +689,7 @@ key number, log-linear unless said otherwise:
 - Wound strings' inharmonicity B through the table's wound Cs ({b}),
   which the cores keep smooth.
 {common}",
-        common = piano_common_rules(),
+        common = piano_common_rules(scale.unison_cents_at_c4, scale.unison_exponent),
     )
 }
 
@@ -700,6 +732,8 @@ fn fortepiano() -> Scale {
         hammer_mass_kg: vec![(29, 3.0e-3), (91, 1.2e-3)],
         felt_exponent: LEATHER_EXPONENT.to_vec(),
         felt_stiffness: Vec::new(),
+        unison_cents_at_c4: UNISON_CENTS_AT_C4,
+        unison_exponent: UNISON_EXPONENT,
     };
     let (c7_stiffness, c7_exponent) = (CHAIGNE_ASKENFELT[2].1, CHAIGNE_ASKENFELT[2].2);
     scale.felt_stiffness = LEATHER_EXPONENT

@@ -637,7 +637,7 @@ mod tests {
             let zero = pitch(&Voicing { unison_detune: 0.0, ..Voicing::default() });
             assert!(one.len() >= 2);
             let spread = one.iter().cloned().fold(f64::MIN, f64::max) - one.iter().cloned().fold(f64::MAX, f64::min);
-            assert!(spread > 0.5, "{kind}: spread {spread} cents");
+            assert!(spread > 0.1, "{kind}: spread {spread} cents");
             // Offsets from the undetuned course (a clavichord's sits flat at rest, for the press).
             for ((a, b), z) in one.iter().zip(&two).zip(&zero) {
                 assert!((b - z - 2.0 * (a - z)).abs() < 1e-9 && (z - zero[0]).abs() < 1e-9);

@@ -939,9 +939,11 @@ mod tests {
         port.load(&[note_on(0, 72, 0.8, 1, 0), note_off(4800, 72)]);
         let (mut l, mut r) = (vec![0.0f32; 512], vec![0.0f32; 512]);
         let mut sounded = false;
-        // The undamped treble strings C5 set ringing die away after it, within
-        // about 11 s; the board then comes to rest.
-        for block in 0..(16.0 * FS) as usize / 512 {
+        // The undamped treble strings C5 set ringing die away after it: G6,
+        // which its third partial drives, rings on in its unison's slow mode
+        // (about -65 dB at 2 s, falling some 4 dB/s) and ends within about
+        // 20 s; the board then comes to rest.
+        for block in 0..(24.0 * FS) as usize / 512 {
             p.process(Controls::default(), &mut port, &mut l, &mut r);
             port.load(&[]);
             sounded |= l.iter().any(|s| s.abs() > 1e-3);

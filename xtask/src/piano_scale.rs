@@ -752,6 +752,7 @@ fn fortepiano() -> Scale {
 }
 
 fn fortepiano_rules() -> String {
+    let scale = fortepiano();
     let gauges: Vec<String> =
         FORTEPIANO_GAUGES.iter().map(|(k, m, d)| format!("{} {} {:.2} mm", note_name(*k), m.name, d * 1e3)).collect();
     format!(
@@ -800,8 +801,8 @@ log-linear unless said otherwise:
         a0 = LEATHER_EXPONENT[0].1,
         a1 = LEATHER_EXPONENT[1].1,
         c = LEATHER_CROSSOVER_M * 1e3,
-        u = UNISON_CENTS_AT_C4,
-        e = UNISON_EXPONENT,
+        u = scale.unison_cents_at_c4,
+        e = scale.unison_exponent,
     )
 }
 

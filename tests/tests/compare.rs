@@ -57,6 +57,53 @@ fn a_preset_that_cannot_be_read_is_refused() {
 }
 
 #[test]
+fn a_bad_reference_or_instrument_is_refused() {
+    refused(&["--reference", "steinway"], "--reference");
+    refused(&["--reference", "fluid:128"], "--reference");
+    refused(&["--reference", "fluid:"], "--reference");
+    refused(&["--instrument", "banjo"], "--instrument");
+    // A recorded note the instrument does not have.
+    refused(&["--instrument", "harpsichord", "--notes", "A0,C4"], "outside the harpsichord's keys");
+}
+
+/// Against FluidR3's recorded dulcimer (General MIDI program 15), one note in
+/// one layer: the table is headed by the reference and Struck's dulcimer has
+/// a figure on every feature one note can give.
+#[test]
+fn struck_is_measured_against_a_fluidr3_program() {
+    if !Path::new("/usr/share/sounds/sf2/FluidR3_GM.sf2").is_file() {
+        // The test step installs it (Debian's fluid-soundfont-gm); a bare
+        // `cargo test` may run without.
+        eprintln!("skipped: no FluidR3_GM");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("out.json");
+    let out = struck(&[
+        "compare",
+        "--reference",
+        "fluid:15",
+        "--instrument",
+        "dulcimer",
+        "--notes",
+        "C4",
+        "--layers",
+        "12",
+        "--quiet",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let table = stdout(&out);
+    assert!(table.starts_with("error vs FluidR3 program 15"), "{table}");
+    let value: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(value["instrument"], "dulcimer");
+    assert!(value["recordings"].as_str().unwrap().contains("program 15"), "{}", value["recordings"]);
+    let inharmonicity = &value["summary"]["inharmonicity"]["struck"];
+    assert_eq!(inharmonicity["n"], 1, "{inharmonicity}");
+}
+
+#[test]
 fn bad_jobs_and_outputs_are_refused() {
     refused(&["--jobs", "0"], "--jobs");
     refused(&["--jobs", "-3"], "--jobs");
@@ -88,9 +135,18 @@ fn an_unwritable_output_is_refused_before_any_work() {
 #[test]
 fn the_help_names_the_recordings_and_the_yardsticks() {
     let help = stdout(&struck(&["compare", "--help"]));
-    for expected in
-        ["Salamander", "CC BY 3.0", "FluidR3", "Faust-STK", "--layers", "--notes", "--jobs", "--json", "--csv"]
-    {
+    for expected in [
+        "Salamander",
+        "CC BY 3.0",
+        "FluidR3",
+        "Faust-STK",
+        "--layers",
+        "--notes",
+        "--jobs",
+        "--json",
+        "--csv",
+        "--reference",
+    ] {
         assert!(help.contains(expected), "compare --help lacks {expected}: {help}");
     }
 }

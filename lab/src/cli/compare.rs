@@ -15,6 +15,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use struck_engine::body::Output;
+use struck_engine::design::InstrumentKind;
 use struck_engine::preset::Preset;
 
 use super::output::Staged;
@@ -23,7 +24,7 @@ use crate::compare::measure::{Analyzer, Context, Features};
 use crate::compare::report::{self, Take};
 use crate::compare::salamander;
 use crate::compare::sources::{self, FaustRenderer, Source};
-use crate::compare::{RECORDED_KEYS, layer_velocity, nominal_hz, parse_layers, parse_notes};
+use crate::compare::{RECORDED_KEYS, layer_velocity, nominal_hz, note_name, parse_layers, parse_notes};
 use crate::console;
 
 /// The recordings' sample rate, at which everything is rendered.
@@ -60,6 +61,17 @@ pub struct CompareArgs {
     /// controls) instead of the default piano.
     #[arg(long, value_name = "FILE")]
     pub preset: Option<PathBuf>,
+    /// Play this instrument: piano|fortepiano|santoor|dulcimer|cimbalom|clavichord|harpsichord
+    /// [default: the preset's, else piano]
+    #[arg(long, value_name = "NAME")]
+    pub instrument: Option<String>,
+    /// What Struck is measured against: salamander (the recordings of a Yamaha C5), or
+    /// fluid:N, FluidR3_GM's recorded General MIDI program N as MIDI numbers it (0-127;
+    /// 6 its harpsichord, 15 its dulcimer), played by FluidSynth at the same notes and
+    /// velocities, within the instrument's compass. Against FluidR3 there are no
+    /// yardsticks.
+    #[arg(long, value_name = "salamander|fluid:N", default_value = "salamander")]
+    pub reference: String,
     /// Leave out FluidR3_GM and Faust-STK.
     #[arg(long)]
     pub no_yardsticks: bool,
@@ -77,6 +89,51 @@ pub struct CompareArgs {
     pub quiet: bool,
 }
 
+/// What the notes are measured against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Against {
+    /// The Salamander recordings of a Yamaha C5.
+    Salamander,
+    /// FluidR3_GM's General MIDI program (0-127) through FluidSynth.
+    Fluid(u8),
+}
+
+impl Against {
+    fn parse(text: &str) -> Result<Self, String> {
+        let t = text.trim().to_ascii_lowercase();
+        if t == "salamander" {
+            return Ok(Against::Salamander);
+        }
+        let program = t
+            .strip_prefix("fluid:")
+            .ok_or_else(|| format!("{text:?}: expected salamander or fluid:N"))?
+            .parse::<u8>()
+            .ok()
+            .filter(|&p| p <= 127)
+            .ok_or_else(|| format!("{text:?}: the program must be a General MIDI program from 0 to 127"))?;
+        Ok(Against::Fluid(program))
+    }
+
+    /// The reference's name in the table.
+    fn title(self) -> String {
+        match self {
+            Against::Salamander => "Yamaha C5".into(),
+            Against::Fluid(program) => format!("FluidR3 program {program}"),
+        }
+    }
+
+    /// What the reference is, for the JSON.
+    fn describe(self) -> String {
+        match self {
+            Against::Salamander => "Salamander Grand Piano V3 (Alexander Holm, CC BY 3.0), a Yamaha C5, npm @audio-samples/piano-velocityN 1.0.5".into(),
+            Against::Fluid(program) => format!("FluidR3_GM (Frank Wen, MIT licence) General MIDI program {program}, played by FluidSynth"),
+        }
+    }
+}
+
+/// Seconds of each note FluidSynth plays as the reference.
+const FLUID_REFERENCE_S: f64 = 12.0;
+
 /// The checked arguments.
 struct Plan {
     keys: Vec<u8>,
@@ -85,13 +142,37 @@ struct Plan {
     jobs: usize,
     cache: PathBuf,
     preset: Preset,
+    against: Against,
 }
 
 fn plan(args: &CompareArgs) -> Result<Plan, Failure> {
     let layers = parse_layers(&args.layers).map_err(|e| Failure::bad_input(format!("--layers: {e}")))?;
+    let against = Against::parse(&args.reference).map_err(|e| Failure::bad_input(format!("--reference {e}")))?;
+    let mut preset = match &args.preset {
+        Some(path) => Preset::load(path).map_err(|e| Failure::bad_input(e.to_string()))?,
+        None => Preset::default(),
+    };
+    if let Some(name) = &args.instrument {
+        let kind: InstrumentKind = name.parse().map_err(|e| Failure::bad_input(format!("--instrument: {e}")))?;
+        preset.instrument = Some(kind);
+    }
+    let instrument = preset.instrument.unwrap_or(InstrumentKind::Piano);
+    let compass = instrument.key_range();
     let keys = match &args.notes {
-        Some(list) => parse_notes(list).map_err(|e| Failure::bad_input(format!("--notes: {e}")))?,
-        None => RECORDED_KEYS.to_vec(),
+        Some(list) => {
+            let keys = parse_notes(list).map_err(|e| Failure::bad_input(format!("--notes: {e}")))?;
+            if let Some(&key) = keys.iter().find(|&&k| !compass.contains(&k)) {
+                return Err(Failure::bad_input(format!(
+                    "--notes: {} is outside the {}'s keys ({} to {})",
+                    note_name(key),
+                    instrument.name(),
+                    note_name(*compass.start()),
+                    note_name(*compass.end())
+                )));
+            }
+            keys
+        }
+        None => RECORDED_KEYS.iter().copied().filter(|k| compass.contains(k)).collect(),
     };
     let output = match args.output.to_ascii_lowercase().as_str() {
         "mics" | "microphones" => Output::Microphones,
@@ -110,11 +191,7 @@ fn plan(args: &CompareArgs) -> Result<Plan, Failure> {
     if cache.exists() && !cache.is_dir() {
         return Err(Failure::bad_input(format!("--cache {}: is not a folder", super::shown(&cache))));
     }
-    let preset = match &args.preset {
-        Some(path) => Preset::load(path).map_err(|e| Failure::bad_input(e.to_string()))?,
-        None => Preset::default(),
-    };
-    Ok(Plan { keys, layers, output, jobs, cache, preset })
+    Ok(Plan { keys, layers, output, jobs, cache, preset, against })
 }
 
 /// A recording decoded and measured.
@@ -148,18 +225,28 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::failed(format!("cannot start {} threads: {e}", plan.jobs)))?;
 
     // The recordings.
-    for &layer in &plan.layers {
-        if !salamander::layer_ready(&plan.cache, layer) {
-            say(format!("fetching {} into {}", salamander::package_name(layer), super::shown(&plan.cache)));
+    match plan.against {
+        Against::Salamander => {
+            for &layer in &plan.layers {
+                if !salamander::layer_ready(&plan.cache, layer) {
+                    say(format!("fetching {} into {}", salamander::package_name(layer), super::shown(&plan.cache)));
+                }
+                salamander::fetch_layer(&plan.cache, layer).map_err(Failure::failed)?;
+                check_interrupted()?;
+            }
         }
-        salamander::fetch_layer(&plan.cache, layer).map_err(Failure::failed)?;
-        check_interrupted()?;
+        Against::Fluid(_) => {
+            sources::fluid_available().map_err(|e| Failure::failed(format!("--reference {}: {e}", args.reference)))?
+        }
     }
 
     // The yardsticks.
     let mut unavailable: BTreeMap<Source, String> = BTreeMap::new();
     let mut faust: Option<FaustRenderer> = None;
-    if args.no_yardsticks {
+    if let Against::Fluid(_) = plan.against {
+        unavailable.insert(Source::Fluid, "left out (FluidR3 is the reference)".into());
+        unavailable.insert(Source::FaustStk, "left out (FluidR3 is the reference)".into());
+    } else if args.no_yardsticks {
         unavailable.insert(Source::Fluid, "left out (--no-yardsticks)".into());
         unavailable.insert(Source::FaustStk, "left out (--no-yardsticks)".into());
     } else {
@@ -198,7 +285,10 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
                 .par_iter()
                 .map(|&(key, layer)| {
                     check_interrupted()?;
-                    let r = reference(&plan.cache, key, layer);
+                    let r = match plan.against {
+                        Against::Salamander => reference(&plan.cache, key, layer),
+                        Against::Fluid(program) => fluid_reference(program, key, layer),
+                    };
                     tick();
                     r
                 })
@@ -224,7 +314,7 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
                             plan.output,
                             SAMPLE_RATE_HZ,
                         ),
-                        Source::Fluid => sources::render_fluid(r.key, velocity, r.render_s, SAMPLE_RATE_HZ),
+                        Source::Fluid => sources::render_fluid(0, r.key, velocity, r.render_s, SAMPLE_RATE_HZ),
                         Source::FaustStk => match &faust {
                             Some(f) => f.render(r.key, velocity, r.render_s, SAMPLE_RATE_HZ),
                             None => Err("not available".into()),
@@ -270,7 +360,8 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
 
     if let (Some(slot), Some(path)) = (json_slot, &args.json) {
         let value = serde_json::json!({
-            "recordings": "Salamander Grand Piano V3 (Alexander Holm, CC BY 3.0), a Yamaha C5, npm @audio-samples/piano-velocityN 1.0.5",
+            "recordings": plan.against.describe(),
+            "instrument": plan.preset.instrument.unwrap_or(InstrumentKind::Piano).name(),
             "sample_rate_hz": SAMPLE_RATE_HZ,
             "struck_output": match plan.output { Output::Microphones => "mics", Output::BridgeForce => "bridge" },
             "layers": plan.layers,
@@ -291,12 +382,13 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
     }
     staged.commit()?;
 
-    for line in report::table(&summary, &unavailable) {
+    let reference_title = plan.against.title();
+    for line in report::table(&summary, &unavailable, &reference_title) {
         console::out(line);
     }
     if !args.quiet {
         console::out("");
-        for line in report::checks(&takes) {
+        for line in report::checks(&takes, &reference_title) {
             console::out(line);
         }
         console::out("");
@@ -327,18 +419,32 @@ fn reference(cache: &Path, key: u8, layer: u8) -> Result<Reference, Failure> {
         return Err(Failure::failed(format!("{}: sampled at {fs} Hz, not 48 kHz", path.display())));
     }
     let signal = crate::compare::measure::mono_sum(&decoded.samples, decoded.channels);
+    Ok(measure_reference(&signal, key, layer, FADE_S))
+}
+
+/// FluidR3's `program` playing `key` at the layer's velocity, measured as a
+/// recording is.
+fn fluid_reference(program: u8, key: u8, layer: u8) -> Result<Reference, Failure> {
+    let signal = sources::render_fluid(program, key, layer_velocity(layer), FLUID_REFERENCE_S, SAMPLE_RATE_HZ)
+        .map_err(Failure::failed)?;
+    Ok(measure_reference(&signal, key, layer, 0.0))
+}
+
+/// Measure a reference `signal` at 48 kHz, leaving out its last `fade_s`.
+fn measure_reference(signal: &[f64], key: u8, layer: u8, fade_s: f64) -> Reference {
+    let fs = SAMPLE_RATE_HZ;
     let length_s = signal.len() as f64 / fs;
     let mut analyzer = Analyzer::new();
-    let onset_s = crate::compare::measure::onset(&signal, fs) as f64 / fs;
-    let measured_s = (length_s - FADE_S - onset_s).clamp(0.5, MAX_MEASURED_S);
-    let cutoff = analyzer.cutoff(&signal, (onset_s * fs) as usize, fs);
+    let onset_s = crate::compare::measure::onset(signal, fs) as f64 / fs;
+    let measured_s = (length_s - fade_s - onset_s).clamp(0.5, MAX_MEASURED_S);
+    let cutoff = analyzer.cutoff(signal, (onset_s * fs) as usize, fs);
     let context = Context {
         nominal_hz: nominal_hz(key),
         band_hz: cutoff * (1.0 - BAND_MARGIN),
         usable_end_s: onset_s + measured_s,
     };
-    let features = analyzer.measure(&signal, fs, &context);
-    Ok(Reference { key, layer, features, context, measured_s, render_s: LEAD_S + measured_s })
+    let features = analyzer.measure(signal, fs, &context);
+    Reference { key, layer, features, context, measured_s, render_s: LEAD_S + measured_s }
 }
 
 /// Measure a render over the recording's span, from the render's own onset.

@@ -276,14 +276,16 @@ fn cell(feature: Feature, s: Option<&Summary>) -> String {
     }
 }
 
-/// The table: features down, sources across, "median [p90] n".
+/// The table: features down, sources across, "median [p90] n", each an error
+/// against `reference` (what the recordings are: "Yamaha C5").
 pub fn table(
     summary: &BTreeMap<Feature, BTreeMap<Source, Summary>>,
     unavailable: &BTreeMap<Source, String>,
+    reference: &str,
 ) -> Vec<String> {
     let mut lines = Vec::new();
     let header = Source::COMPARED.iter().map(|s| format!("{:>20}", s.title())).collect::<String>();
-    lines.push(format!("{:<42}{header}", "error vs Yamaha C5: median [p90] n"));
+    lines.push(format!("{:<42}{header}", format!("error vs {reference}: median [p90] n")));
     for feature in Feature::ALL {
         let cells: String = Source::COMPARED
             .iter()
@@ -302,8 +304,9 @@ pub fn table(
 }
 
 /// Per-source figures that are not errors: the "boom" share, growing
-/// early decays, extrapolated fall times.
-pub fn checks(takes: &[Take]) -> Vec<String> {
+/// early decays, extrapolated fall times; the recordings' column headed
+/// `reference`.
+pub fn checks(takes: &[Take], reference: &str) -> Vec<String> {
     let mut lines = Vec::new();
     let all = [Source::Recording, Source::Struck, Source::Fluid, Source::FaustStk];
     let present: Vec<Source> = all
@@ -313,7 +316,11 @@ pub fn checks(takes: &[Take]) -> Vec<String> {
     let of = |t: &Take, s: Source| -> Option<Features> {
         if s == Source::Recording { Some(t.recording.clone()) } else { t.sources.get(&s)?.as_ref().ok().cloned() }
     };
-    lines.push(format!("{:<42}{}", "checks", present.iter().map(|s| format!("{:>20}", s.title())).collect::<String>()));
+    let heads: String = present
+        .iter()
+        .map(|&s| format!("{:>20}", if s == Source::Recording { reference } else { s.title() }))
+        .collect();
+    lines.push(format!("{:<42}{heads}", "checks"));
     let row = |title: &str, f: &dyn Fn(&[Features]) -> String| {
         let cells: String = present
             .iter()
@@ -570,7 +577,7 @@ mod tests {
         assert_eq!((s.median, s.n), (Some(3.0), 2));
         assert_eq!(summary[&Feature::Dynamics][&Source::Fluid].n, 0);
         assert!(!summary[&Feature::Dynamics].contains_key(&Source::FaustStk));
-        let table = table(&summary, &BTreeMap::from([(Source::FaustStk, "no faust".to_string())]));
+        let table = table(&summary, &BTreeMap::from([(Source::FaustStk, "no faust".to_string())]), "Yamaha C5");
         assert!(table[1].contains("2.00 [2.00] 4") && table[1].contains("not available"), "{}", table[1]);
 
         let json = serde_json::to_value(&takes[0]).unwrap();

@@ -100,13 +100,14 @@ pub fn render_struck(
 }
 
 /// A standard MIDI file (format 0, 480 ticks a quarter at 120 bpm) playing
-/// `key` at `velocity` from time 0, released after `seconds`.
-pub fn one_note_midi(key: u8, velocity: u8, seconds: f64) -> Vec<u8> {
+/// `key` at `velocity` from time 0 on General MIDI `program` (as MIDI sends
+/// it, 0-127: 0 the acoustic grand), released after `seconds`.
+pub fn one_note_midi(program: u8, key: u8, velocity: u8, seconds: f64) -> Vec<u8> {
     // 960 ticks a second.
     let release = (seconds * 960.0).round().clamp(0.0, f64::from(0x0fff_ffff)) as u32;
     let mut track = Vec::new();
     track.extend([0x00, 0xff, 0x51, 0x03, 0x07, 0xa1, 0x20]); // tempo 500000 us a quarter
-    track.extend([0x00, 0xc0, 0x00]); // program 1: acoustic grand
+    track.extend([0x00, 0xc0, program & 0x7f]);
     track.extend([0x00, 0x90, key & 0x7f, velocity.clamp(1, 127)]);
     track.extend(variable_length(release));
     track.extend([0x80, key & 0x7f, 0x40]);
@@ -144,13 +145,15 @@ pub fn fluid_available() -> Result<(), String> {
     }
 }
 
-/// Render `key` at `velocity` with FluidSynth and FluidR3_GM (reverb and
-/// chorus off, so that the decays are the SoundFont's), held for `seconds`.
-pub fn render_fluid(key: u8, velocity: u8, seconds: f64, fs: f64) -> Result<Vec<f64>, String> {
+/// Render `key` at `velocity` with FluidSynth and FluidR3_GM's General MIDI
+/// `program` (0: its grand; reverb and chorus off, so that the decays are the
+/// SoundFont's), held for `seconds`.
+pub fn render_fluid(program: u8, key: u8, velocity: u8, seconds: f64, fs: f64) -> Result<Vec<f64>, String> {
     let dir = tempfile::tempdir().map_err(|e| format!("cannot make a scratch folder: {e}"))?;
     let midi = dir.path().join("note.mid");
     let wav = dir.path().join("note.wav");
-    fs::write(&midi, one_note_midi(key, velocity, seconds)).map_err(|e| format!("cannot write a MIDI file: {e}"))?;
+    fs::write(&midi, one_note_midi(program, key, velocity, seconds))
+        .map_err(|e| format!("cannot write a MIDI file: {e}"))?;
     let output = Command::new("fluidsynth")
         .args(["-n", "-i", "-q", "-R", "0", "-C", "0", "-g", "1.0", "-T", "wav", "-O", "float", "-r"])
         .arg(format!("{fs}"))
@@ -335,7 +338,8 @@ mod tests {
 
     #[test]
     fn the_one_note_file_is_a_midi_file_the_lab_reads() {
-        let bytes = one_note_midi(60, 92, 6.0);
+        let bytes = one_note_midi(15, 60, 92, 6.0);
+        assert!(bytes.windows(3).any(|w| w == [0x00, 0xc0, 15]), "program change");
         let song = crate::midi_file::read(&bytes, 48_000, crate::midi_file::ReadOptions::default()).unwrap();
         let notes: Vec<(u64, Event)> = song
             .events

@@ -1,4 +1,4 @@
-//! One body design per instrument: the plate, the air mode of the boxed
+//! One body design per instrument: the plate, the box and holes of the boxed
 //! instruments, the bridge lines (where each key's strings bear on the board) and
 //! two microphone positions.
 //!
@@ -71,8 +71,9 @@ pub const WALNUT: Wood =
 /// those imposed by wood"; used for every instrument (assumption beyond the piano).
 pub const BOARD_LOSS_FACTOR: f64 = 0.02;
 
-/// Loss factor of a Helmholtz air mode: Q = 20 (assumption; guitar-body air
-/// modes are commonly quoted with Q of 10-30, radiation and wall losses).
+/// Loss factor of the air in a box's holes: Q = 20 (assumption; guitar-body air
+/// modes are commonly quoted with Q of 10-30, radiation and wall losses; a
+/// coupled mode adds what its net volume radiates on top).
 pub const AIR_LOSS_FACTOR: f64 = 0.05;
 
 /// A Helmholtz resonator formed by the box and its soundholes.
@@ -106,28 +107,70 @@ impl AirCavity {
         SOUND_SPEED_M_S / (2.0 * PI) * (self.hole_area_m2() / (self.volume_m3 * self.neck_length_m())).sqrt()
     }
 
-    /// Modal mass of the air mode for a unit-peak shape equal to the top's (1, 1)
-    /// mode, kg. Argument: the air in the holes (mass rho L A) moves with the
-    /// volume velocity the top pushes through the cavity; a top moving with unit
-    /// peak in its (1, 1) shape displaces S_eff = 4 a b / pi^2 of volume, which
-    /// pushes the plug S_eff/A times as far. Kinetic energy equal: m =
-    /// rho L A (S_eff/A)^2 = rho L S_eff^2 / A. This is the plug's mass as seen
-    /// through the top, an upper bound for the coupling (the cavity's stiffness
-    /// also loads the top's own mode, neglected here).
-    pub fn modal_mass_kg(&self, plate: &Plate) -> f64 {
-        let s_eff = 4.0 * plate.area_m2() / (PI * PI);
-        AIR_DENSITY_KG_M3 * self.neck_length_m() * s_eff * s_eff / self.hole_area_m2()
-    }
-
-    /// The air mode as a `BodyMode` (m = n = 0).
-    pub fn mode(&self, plate: &Plate) -> BodyMode {
-        BodyMode {
-            frequency_hz: self.frequency_hz(),
-            loss_factor: AIR_LOSS_FACTOR,
-            modal_mass_kg: self.modal_mass_kg(plate),
-            m: 0,
-            n: 0,
-        }
+    /// The box's lowest pair of modes: the top's (1, 1) mode `top` (its wood
+    /// and radiation losses in its loss factor) and the air in the holes,
+    /// coupled by the cavity's stiffness (the two-oscillator model of
+    /// Christensen & Vistisen, JASA 68, 1980; Fletcher & Rossing, The Physics
+    /// of Musical Instruments, 2nd ed., section 9.4).
+    ///
+    /// The top moves q (its (1, 1) shape's peak, outward), sweeping the volume
+    /// S q with S = 4 a b / pi^2; the air plug in the holes (mass rho L A)
+    /// moves z outward, sweeping A z. The cavity's pressure is
+    /// -(rho c^2 / V) (S q + A z), so the stiffness matrix is
+    /// [[K + k S^2, k S A], [k S A, k A^2]] with k = rho c^2 / V, and what
+    /// leaves the box is the volume S q + A z. Slowly pushed, the air in the
+    /// holes makes way for the top (S q + A z = 0): the box neither stiffens
+    /// the top's static give nor radiates a slow push; only the two coupled
+    /// resonances ring, each with the net volume of its own shape. (Taken as
+    /// two modes of their own, a top and an air mode each driven by the
+    /// bridge, the air mode added a static give of 1 / (k S^2) to the top's
+    /// 1 / K and rang a boom under every strike.)
+    ///
+    /// Each coupled mode is returned in the top's (1, 1) shape, with the
+    /// modal mass the bridge sees through the top, the losses of its two
+    /// parts weighted by their shares of its kinetic energy (the air's
+    /// [`AIR_LOSS_FACTOR`]), plus what its net volume radiates, and its net
+    /// volume re the top's own.
+    pub fn couple(&self, plate: &Plate, top: &BodyMode) -> [BodyMode; 2] {
+        let s = 4.0 * plate.area_m2() / (PI * PI);
+        let a = self.hole_area_m2();
+        let k = AIR_DENSITY_KG_M3 * SOUND_SPEED_M_S * SOUND_SPEED_M_S / self.volume_m3;
+        let plug_kg = AIR_DENSITY_KG_M3 * self.neck_length_m() * a;
+        let top_kg = top.modal_mass_kg;
+        let top_k = top_kg * (2.0 * PI * top.frequency_hz).powi(2);
+        // In mass-normalised coordinates the stiffness is symmetric:
+        // [[p, r], [r, d]].
+        let p = (top_k + k * s * s) / top_kg;
+        let r = k * s * a / (top_kg * plug_kg).sqrt();
+        let d = k * a * a / plug_kg;
+        let half_sum = 0.5 * (p + d);
+        let split = (0.25 * (p - d).powi(2) + r * r).sqrt();
+        [half_sum - split, half_sum + split].map(|w2| {
+            // An eigenvector (u_top, u_air) of unit length.
+            let (u_top, u_air) = if r.abs() > 0.0 { (r, w2 - p) } else { (1.0, 0.0) };
+            let norm = u_top.hypot(u_air);
+            let (u_top, u_air) = (u_top / norm, u_air / norm);
+            let frequency_hz = w2.max(0.0).sqrt() / (2.0 * PI);
+            // Top and plug displacements per unit modal coordinate.
+            let (q, z) = (u_top / top_kg.sqrt(), u_air / plug_kg.sqrt());
+            let mode = BodyMode {
+                frequency_hz,
+                loss_factor: 0.0,
+                modal_mass_kg: 1.0 / (q * q).max(f64::MIN_POSITIVE),
+                m: 1,
+                n: 1,
+                net_volume: 1.0 + a * z / (s * q),
+            };
+            // The top's share keeps its wood's loss; its own radiation is
+            // counted again below with the net volume.
+            let top_wood = top.loss_factor - radiation_loss_factor(plate, top);
+            BodyMode {
+                loss_factor: u_top * u_top * top_wood
+                    + u_air * u_air * AIR_LOSS_FACTOR
+                    + radiation_loss_factor(plate, &mode),
+                ..mode
+            }
+        })
     }
 }
 
@@ -182,7 +225,7 @@ pub struct BodyDesign {
     pub instrument: InstrumentKind,
     /// The equivalent rectangular board.
     pub plate: Plate,
-    /// The air mode of a boxed instrument.
+    /// The box and holes of a boxed instrument.
     pub air: Option<AirCavity>,
     /// The compass, MIDI keys (as in `crate::design`).
     pub keys: RangeInclusive<u8>,
@@ -245,16 +288,28 @@ impl BodyDesign {
         ((pa.0 - pb.0) * self.plate.length_m).hypot((pa.1 - pb.1) * self.plate.width_m)
     }
 
-    /// The body's modes up to `max_hz`: plate modes plus the air mode (if any, and
-    /// if below `max_hz`), sorted by frequency. A plate mode loses what the
-    /// wood takes and what it radiates ([`radiation_loss_factor`]).
+    /// The body's modes up to `max_hz`, sorted by frequency: the plate's, its
+    /// (1, 1) mode coupled to the air of a box ([`AirCavity::couple`]). A plate
+    /// mode loses what the wood takes and what it radiates
+    /// ([`radiation_loss_factor`]).
     pub fn modes(&self, max_hz: f64) -> Vec<BodyMode> {
         let mut list = plate::modes(&self.plate, max_hz);
         for mode in &mut list {
             mode.loss_factor += radiation_loss_factor(&self.plate, mode);
         }
-        if let Some(air) = self.air.map(|a| a.mode(&self.plate)).filter(|m| m.frequency_hz <= max_hz) {
-            list.push(air);
+        if let Some(air) = &self.air {
+            let f = self.plate.mode_frequency_hz(1, 1);
+            let top = BodyMode {
+                frequency_hz: f,
+                loss_factor: self.plate.loss_factor,
+                modal_mass_kg: self.plate.mass_kg() / 4.0,
+                m: 1,
+                n: 1,
+                net_volume: 1.0,
+            };
+            let top = BodyMode { loss_factor: top.loss_factor + radiation_loss_factor(&self.plate, &top), ..top };
+            list.retain(|mode| (mode.m, mode.n) != (1, 1));
+            list.extend(air.couple(&self.plate, &top).into_iter().filter(|m| m.frequency_hz <= max_hz));
             list.sort_by(|p, q| p.frequency_hz.total_cmp(&q.frequency_hz));
         }
         list
@@ -275,7 +330,7 @@ impl BodyDesign {
         let mut credit = 0.0;
         let mut list = Vec::new();
         for mode in self.modes(max_hz) {
-            if mode.frequency_hz <= split_hz || mode.is_air() {
+            if mode.frequency_hz <= split_hz {
                 list.push(mode);
                 continue;
             }

@@ -105,17 +105,14 @@ pub struct BodyMode {
     pub loss_factor: f64,
     /// Modal mass for a shape of unit peak, kg.
     pub modal_mass_kg: f64,
-    /// Half-waves along x (0 marks the air mode, see `instruments`).
+    /// Half-waves along x.
     pub m: u32,
-    /// Half-waves along y (0 marks the air mode).
+    /// Half-waves along y.
     pub n: u32,
-}
-
-impl BodyMode {
-    /// True for the Helmholtz air mode, which is not a plate mode.
-    pub fn is_air(&self) -> bool {
-        self.m == 0 || self.n == 0
-    }
+    /// The net volume the mode moves, re what its shape alone moves: 1 for a
+    /// plate mode; a box's top-and-air modes add the air its holes move (in
+    /// step or against the top's), [`crate::body::boards::AirCavity::couple`].
+    pub net_volume: f64,
 }
 
 impl Plate {
@@ -237,7 +234,7 @@ pub fn modes(plate: &Plate, max_hz: f64) -> Vec<BodyMode> {
             if frequency_hz > max_hz {
                 break;
             }
-            out.push(BodyMode { frequency_hz, loss_factor: plate.loss_factor, modal_mass_kg, m, n });
+            out.push(BodyMode { frequency_hz, loss_factor: plate.loss_factor, modal_mass_kg, m, n, net_volume: 1.0 });
             n += 1;
         }
         m += 1;
@@ -246,12 +243,10 @@ pub fn modes(plate: &Plate, max_hz: f64) -> Vec<BodyMode> {
     out
 }
 
-/// Mode shape at (x, y), fractions of the sides: sin(m pi x) sin(n pi y). The
-/// air mode (m = n = 0) couples through the top's net volume motion, so it takes
-/// the shape of the plate's (1, 1) mode.
+/// Mode shape at (x, y), fractions of the sides: sin(m pi x) sin(n pi y) (a
+/// box's coupled top-and-air modes are in the top's (1, 1) shape).
 pub fn shape_at(mode: &BodyMode, x: f64, y: f64) -> f64 {
-    let (m, n) = if mode.is_air() { (1, 1) } else { (mode.m, mode.n) };
-    (f64::from(m) * PI * x).sin() * (f64::from(n) * PI * y).sin()
+    (f64::from(mode.m) * PI * x).sin() * (f64::from(mode.n) * PI * y).sin()
 }
 
 /// One mode's contribution to the drive-point mobility at angular frequency w:

@@ -57,9 +57,9 @@ fn side_integral(m: u32, side_m: f64, beta: f64) -> Complex64 {
 }
 
 /// Sound pressure at `mic` per unit modal acceleration (m/s^2 at the shape's
-/// peak) of `mode`, Pa s^2/m, near the mode's own frequency. The air mode of a
-/// box radiates through its holes as the volume its top's (1, 1) shape
-/// displaces.
+/// peak) of `mode`, Pa s^2/m, near the mode's own frequency. A box's coupled
+/// top-and-air mode radiates its net volume (the top's and the holes' air,
+/// taken together as the (1, 1) shape's small piston, times `net_volume`).
 ///
 /// The sum is taken on a grid fine enough for the shape's half-waves and the
 /// sound's wavelength (a quarter of either per cell, midpoint rule). The
@@ -83,12 +83,12 @@ pub fn pressure_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPositio
         mic.y_m,
         mic.height_m,
     ];
-    HEARD.get_or(key, || rayleigh_sum(plate, mode, mic))
+    HEARD.get_or(key, || rayleigh_sum(plate, mode, mic)) * mode.net_volume
 }
 
 /// [`pressure_per_acceleration`], summed.
 fn rayleigh_sum(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
-    let (m, n) = if mode.is_air() { (1, 1) } else { (mode.m, mode.n) };
+    let (m, n) = (mode.m, mode.n);
     let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
     let (length, width) = (plate.length_m, plate.width_m);
     let cells = |side: f64, half_waves: u32| {
@@ -133,16 +133,18 @@ fn rayleigh_sum(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
 /// 0.02; the others' lobes cancel and they lose little, the (2, 1) 0.0051
 /// (engine/tests/body_physics.rs). The radiation's formula hears each mode through the same
 /// baffle, so a mode that rings a microphone loses the power it sends there.
-/// Air modes radiate through their holes, not as the top: none here.
+/// A box's coupled top-and-air mode radiates as its net volume: times
+/// `net_volume` squared.
 pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
-    if mode.is_air() || mode.modal_mass_kg <= 0.0 || mode.frequency_hz <= 0.0 {
+    if mode.modal_mass_kg <= 0.0 || mode.frequency_hz <= 0.0 {
         return 0.0;
     }
     let omega = 2.0 * PI * mode.frequency_hz;
     if mode.frequency_hz > INTEGRATED_BELOW_HZ {
         // Well above coincidence every mode radiates its whole area, sigma 1:
         // P = rho c S <v^2> with <v^2> = v^2 / 8 (a product of two sines).
-        return AIR_DENSITY_KG_M3 * SOUND_SPEED_M_S * plate.area_m2() / (4.0 * omega * mode.modal_mass_kg);
+        return AIR_DENSITY_KG_M3 * SOUND_SPEED_M_S * plate.area_m2() / (4.0 * omega * mode.modal_mass_kg)
+            * mode.net_volume.powi(2);
     }
     let key =
         [plate.length_m, plate.width_m, mode.frequency_hz, mode.modal_mass_kg, f64::from(mode.m), f64::from(mode.n)];
@@ -169,7 +171,7 @@ pub fn radiation_loss_factor(plate: &Plate, mode: &BodyMode) -> f64 {
             integral += 4.0 * ring * sin_t * dt * df;
         }
         AIR_DENSITY_KG_M3 * omega / (4.0 * PI * PI * SOUND_SPEED_M_S * mode.modal_mass_kg) * integral
-    })
+    }) * mode.net_volume.powi(2)
 }
 
 /// Above this a mode's radiation is taken as its whole area's (sigma 1),
@@ -223,7 +225,7 @@ const MIN_DISTANCE_M: f64 = 0.05;
 /// closed form), for checking the sum against.
 #[cfg(test)]
 fn far_field_pressure_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
-    let (m, n) = if mode.is_air() { (1, 1) } else { (mode.m, mode.n) };
+    let (m, n) = (mode.m, mode.n);
     let dx = mic.x_m - plate.length_m / 2.0;
     let dy = mic.y_m - plate.width_m / 2.0;
     let r = (dx * dx + dy * dy + mic.height_m * mic.height_m).sqrt().max(0.05);
@@ -258,8 +260,14 @@ mod tests {
     fn far_away_the_sum_is_the_far_fields_and_near_it_hears_the_near_lobes() {
         let board = design(InstrumentKind::Piano);
         let plate = &board.plate;
-        let mode =
-            |m: u32, n: u32, frequency_hz: f64| BodyMode { frequency_hz, loss_factor: 0.02, modal_mass_kg: 1.0, m, n };
+        let mode = |m: u32, n: u32, frequency_hz: f64| BodyMode {
+            frequency_hz,
+            loss_factor: 0.02,
+            modal_mass_kg: 1.0,
+            m,
+            n,
+            net_volume: 1.0,
+        };
         let (a, b) = (plate.length_m, plate.width_m);
         // 30 m off, up and to one side: within 0.3 dB of Fraunhofer's lobes.
         for (m, n, f) in [(1, 1, 80.0), (3, 1, 113.0), (2, 3, 400.0), (5, 3, 1000.0), (7, 5, 1500.0)] {

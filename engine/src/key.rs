@@ -69,10 +69,6 @@ const MIN_STRIKE_POINT: f64 = 0.02;
 const MAX_STRIKE_POINT: f64 = 0.5;
 /// The deepest Bebung, cents at full pressure.
 pub const MAX_BEBUNG_CENTS: f64 = 100.0;
-/// A string's contact in the work a sub-step costs, in modes stepped a
-/// sample (for cutting the keys in halves of like work): a sub-step's solve is
-/// about a hundred modes' steps, and a strike takes about ten a sample.
-const CONTACT_WORK: usize = 1000;
 /// The strings are retuned when their pitch has moved by more than this ratio
 /// (0.002 cent).
 const RETUNE_THRESHOLD: f64 = 1.0e-6;
@@ -951,18 +947,6 @@ impl Key {
         self.strings.iter().map(|s| s.bank().running()).sum()
     }
 
-    /// Whether a string of it is in contact with its exciter.
-    pub fn in_contact(&self) -> bool {
-        self.strings.iter().any(|s| s.in_contact())
-    }
-
-    /// Its work in the next control block, in modes' steps a sample: its
-    /// running modes, and a string in contact as [`CONTACT_WORK`] more.
-    pub fn work(&self) -> usize {
-        let contacts = self.strings.iter().filter(|s| s.in_contact()).count();
-        self.running_modes() + CONTACT_WORK * contacts
-    }
-
     /// Whether any of the course's keys is down.
     pub fn down(&self) -> bool {
         self.held != 0
@@ -1490,13 +1474,6 @@ impl Key {
         } else {
             bridge.drive(self.bridge_point, force);
         }
-    }
-
-    /// Where it pushes on the bridge, unless it has a place of its own in
-    /// the stereo image (then only [`Self::drive`] drives it: its pan glides
-    /// as it does).
-    pub fn fixed_bridge_point(&self) -> Option<BridgePoint> {
-        (!self.pan.is_placed()).then_some(self.bridge_point)
     }
 
     /// Add the key bed's pulse, while it lasts, to `out` (at output gain).

@@ -106,7 +106,6 @@ pub mod modal_bank;
 pub mod phantom;
 pub mod preset;
 pub mod rng;
-pub mod share;
 pub mod string;
 pub mod struck_string;
 pub mod synth;

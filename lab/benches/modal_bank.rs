@@ -141,7 +141,7 @@ fn bodies(c: &mut Criterion) {
         group.throughput(Throughput::Elements((body.mode_count() * CONTROL_BLOCK) as u64));
         group.bench_function(format!("{}, {} modes", kind.name(), body.mode_count()), |b| {
             b.iter(|| {
-                body.process(&forces, &mut left, &mut right, None);
+                body.process(&forces, &mut left, &mut right);
                 std::hint::black_box((&left, &right));
             })
         });

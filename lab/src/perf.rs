@@ -277,116 +277,9 @@ pub fn fma_probe(min_time: Duration) -> f64 {
     fmas as f64 / start.elapsed().as_secs_f64()
 }
 
-/// How long a value takes to reach another core and come back, ns: two
-/// threads, each held to one of the first two processors this process may
-/// run on, hand a counter to and fro; the median of 15 batches of 2000 round
-/// trips. What two cores sharing a render wait on each time they hand over
-/// (`Synth::share_work`): on a virtual machine it depends on where the host
-/// has put its two processors (52-60 ns where the 32-note chord shares at
-/// about 117x, 260-340 ns where it shares at 73x, slower than one thread).
-/// None off Linux, with fewer than two processors, or if the other side
-/// does not answer within a second.
-pub fn core_round_trip_ns() -> Option<f64> {
-    #[cfg(target_os = "linux")]
-    {
-        let [first, second] = first_two_cpus()?;
-        round_trips(first, second)
-    }
-    #[cfg(not(target_os = "linux"))]
-    None
-}
-
-/// The first two processors in this process's affinity mask.
-#[cfg(target_os = "linux")]
-fn first_two_cpus() -> Option<[usize; 2]> {
-    // SAFETY: a zeroed cpu_set_t is a valid empty set; sched_getaffinity
-    // writes at most its size.
-    let set = unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        (libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) == 0).then_some(set)?
-    };
-    // SAFETY: reads the set within its size.
-    let mut cpus = (0..libc::CPU_SETSIZE as usize).filter(|&c| unsafe { libc::CPU_ISSET(c, &set) });
-    Some([cpus.next()?, cpus.next()?])
-}
-
-/// Holds the calling thread to processor `cpu`; whether it could.
-#[cfg(target_os = "linux")]
-fn hold_to(cpu: usize) -> bool {
-    // SAFETY: a zeroed cpu_set_t is a valid empty set; pid 0 is this thread.
-    unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) == 0
-    }
-}
-
-#[cfg(target_os = "linux")]
-fn round_trips(first: usize, second: usize) -> Option<f64> {
-    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-    const BATCHES: usize = 15;
-    const TRIPS: u64 = 2000;
-    const PATIENCE: Duration = Duration::from_secs(1);
-    #[repr(align(128))]
-    struct Line(AtomicU64);
-    let (turn, gave_up) = (Line(AtomicU64::new(0)), AtomicBool::new(false));
-    // Spins until `turn` reads `value`; false once either side gives up.
-    let wait_for = |value: u64| {
-        let start = Instant::now();
-        let mut spins = 0u32;
-        while turn.0.load(Ordering::Acquire) != value {
-            std::hint::spin_loop();
-            spins = spins.wrapping_add(1);
-            if spins.is_multiple_of(4096) && (gave_up.load(Ordering::Relaxed) || start.elapsed() > PATIENCE) {
-                gave_up.store(true, Ordering::Relaxed);
-                return false;
-            }
-        }
-        true
-    };
-    std::thread::scope(|scope| {
-        let answers = scope.spawn(|| {
-            if !hold_to(second) {
-                gave_up.store(true, Ordering::Relaxed);
-                return;
-            }
-            for trip in 0..BATCHES as u64 * TRIPS {
-                if !wait_for(2 * trip + 1) {
-                    return;
-                }
-                turn.0.store(2 * trip + 2, Ordering::Release);
-            }
-        });
-        let asks = scope.spawn(|| {
-            if !hold_to(first) {
-                gave_up.store(true, Ordering::Relaxed);
-                return None;
-            }
-            let mut batches = Vec::with_capacity(BATCHES);
-            for batch in 0..BATCHES as u64 {
-                let start = Instant::now();
-                for trip in batch * TRIPS..(batch + 1) * TRIPS {
-                    turn.0.store(2 * trip + 1, Ordering::Release);
-                    if !wait_for(2 * trip + 2) {
-                        return None;
-                    }
-                }
-                batches.push(start.elapsed().as_secs_f64() * 1e9 / TRIPS as f64);
-            }
-            batches.sort_by(f64::total_cmp);
-            Some(batches[BATCHES / 2])
-        });
-        let ns = asks.join().ok().flatten();
-        // (The answering side gives up too once the asking side has.)
-        answers.join().ok()?;
-        ns
-    })
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{core_round_trip_ns, cpu_identity};
+    use super::cpu_identity;
 
     #[test]
     fn the_processor_is_named_with_its_family_and_model() {
@@ -397,16 +290,5 @@ mod tests {
         // An Arm machine's cpuinfo has neither a family nor a model name.
         assert_eq!(cpu_identity("processor\t: 0\nBogoMIPS\t: 50.00\nCPU part\t: 0xd0c\n"), None);
         assert_eq!(cpu_identity("model name\t: Some CPU\n").as_deref(), Some("Some CPU"));
-    }
-
-    #[test]
-    fn a_round_trip_between_two_cores_takes_some_nanoseconds() {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        match core_round_trip_ns() {
-            // (A round trip is at least two of the cache's transfers, and far
-            // under a millisecond on any machine that answers at all.)
-            Some(ns) => assert!(ns > 1.0 && ns < 1e6, "{ns} ns"),
-            None => assert!(cores < 2 || !cfg!(target_os = "linux"), "no round trip on {cores} processors"),
-        }
     }
 }

@@ -785,34 +785,40 @@ fn a_limit_on_threads_leaves_the_work_on_one_with_the_same_samples() {
     use std::os::unix::fs::PermissionsExt;
     // RLIMIT_NPROC counts every process and thread of the user: at 1, no
     // thread can be started. (It does not hold root back: as root the run
-    // is another user's, who has none running.)
+    // is another user's, who has none running.) Two songs, which would
+    // render a core each, play one after the other instead.
     let dir = tempfile::tempdir().unwrap();
     let open = |path: &Path, mode: u32| std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
     open(dir.path(), 0o777);
     let binary = dir.path().join("struck");
     std::fs::copy(struck_tests::struck_binary(), &binary).unwrap();
     open(&binary, 0o755);
-    let song = dir.path().join("song.mid");
-    std::fs::copy(midi("a4.mid"), &song).unwrap();
-    open(&song, 0o644);
+    let songs = [dir.path().join("one.mid"), dir.path().join("two.mid")];
+    for (song, source) in songs.iter().zip(["a4.mid", "a0.mid"]) {
+        std::fs::copy(midi(source), song).unwrap();
+        open(song, 0o644);
+    }
     let status = std::fs::read_to_string("/proc/self/status").unwrap();
     let root = status.lines().any(|l| l.starts_with("Uid:") && l.split_whitespace().nth(1) == Some("0"));
     let mut command = std::process::Command::new(if root { "setpriv" } else { "prlimit" });
     if root {
         command.args(["--reuid=65534", "--regid=65534", "--clear-groups", "prlimit"]);
     }
-    let limited = dir.path().join("limited.wav");
+    let limited = dir.path().join("limited");
     let run = command
         .args(["--nproc=1"])
         .arg(&binary)
-        .args(["render", &text(&song), "--out", &text(&limited)])
+        .args(["render", &text(&songs[0]), &text(&songs[1]), "--out", &text(&limited)])
         .output()
         .unwrap();
     let said = stderr(&run);
     assert_eq!(run.status.code(), Some(0), "{said}");
-    assert!(said.contains("rendering on one thread") && !said.contains("panicked"), "{said}");
-    let free = dir.path().join("free.wav");
-    let run = struck(&["render", &text(&song), "--out", &text(&free), "-q"]);
-    assert!(run.status.success(), "{}", stderr(&run));
-    assert!(std::fs::read(&limited).unwrap() == std::fs::read(&free).unwrap(), "the same samples");
+    assert!(said.contains("one song at a time") && !said.contains("panicked"), "{said}");
+    for (song, name) in songs.iter().zip(["one", "two"]) {
+        let free = dir.path().join(format!("free-{name}.wav"));
+        let run = struck(&["render", &text(song), "--out", &text(&free), "-q"]);
+        assert!(run.status.success(), "{}", stderr(&run));
+        let together = std::fs::read(limited.join(format!("{name}.wav"))).unwrap();
+        assert!(together == std::fs::read(&free).unwrap(), "{name}: the same samples");
+    }
 }

@@ -511,13 +511,50 @@ fn renders_are_bit_identical_for_any_block_size() {
         assert!(out.status.success(), "{}", stderr(&out));
         std::fs::read(scratch.out()).unwrap()
     };
-    // (By default the work is shared with a second core.)
     let reference = render("64", &[]);
     assert_eq!(render("64", &[]), reference, "two runs differ");
     assert_eq!(render("1", &[]), reference, "block size 1");
     assert_eq!(render("4096", &[]), reference, "block size 4096");
     assert_eq!(render("8192", &[]), reference, "block size 8192");
-    assert_eq!(render("64", &["--one-thread"]), reference, "on one thread");
+}
+
+/// Several songs at once, one a core, into a folder: each WAV named after its
+/// song and bit-identical to that song rendered alone. A folder that is a
+/// file, or two songs that would write the same WAV, are refused before
+/// anything is written.
+#[test]
+fn several_songs_render_at_once_each_as_alone() {
+    let scratch = Scratch::new();
+    let songs = [midi("chord-all-sound-off.mid"), midi("smpte-25fps.mid"), midi("tempo-map.mid")];
+    let folder = scratch.dir.path().join("renders");
+    let mut args: Vec<&str> = vec!["render", "--tail-s", "0.2", "-q", "--out", folder.to_str().unwrap()];
+    args.extend(songs.iter().map(|s| s.to_str().unwrap()));
+    let out = struck(&args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for song in &songs {
+        let alone = scratch.render(song, &["--tail-s", "0.2", "-q"]);
+        assert!(alone.status.success(), "{}", stderr(&alone));
+        let name = song.file_stem().unwrap().to_str().unwrap();
+        let together = std::fs::read(folder.join(format!("{name}.wav"))).unwrap();
+        assert!(together == std::fs::read(scratch.out()).unwrap(), "{name} differs from its render alone");
+    }
+    // A file where the folder should be.
+    let file = scratch.dir.path().join("a-file.wav");
+    std::fs::write(&file, b"x").unwrap();
+    let mut args: Vec<&str> = vec!["render", "--out", file.to_str().unwrap()];
+    args.extend(songs.iter().map(|s| s.to_str().unwrap()));
+    let out = struck(&args);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("is the folder"), "{}", stderr(&out));
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+    // The same song twice.
+    let twice = scratch.dir.path().join("twice");
+    let song = songs[0].to_str().unwrap();
+    let out = struck(&["render", "--out", twice.to_str().unwrap(), song, song]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
+    assert!(stderr(&out).contains("both would be written"), "{}", stderr(&out));
+    assert!(!twice.exists(), "nothing made");
 }
 
 /// Channel 10 (General MIDI drums) is left out unless asked for.

@@ -24,7 +24,6 @@ use super::plate::{BodyMode, shape_at};
 use super::radiation::{MicPosition, pressure_per_acceleration};
 use crate::CONTROL_BLOCK;
 use crate::modal_bank;
-use crate::share::Helper;
 
 /// Modes are carried up to this frequency (or 0.45 of the sample rate): above
 /// it a string's partials reach the microphones only through the modes' mass
@@ -160,8 +159,9 @@ pub struct Soundboard {
     step_s: f64,
     gain: f64,
     acc: Box<[[Lanes; CONTROL_BLOCK]; 2]>,
-    /// The groups from `half` on run apart from those before (on a helper
-    /// thread when given one), into their own accumulators, added to `acc` after.
+    /// The groups from `half` on run apart from those before, into their own
+    /// accumulators, added to `acc` after (the order every render's samples
+    /// are summed in).
     half: usize,
     acc_half: Box<[[Lanes; CONTROL_BLOCK]; 2]>,
     modes: usize,
@@ -335,18 +335,11 @@ impl Soundboard {
     }
 
     /// Run `left.len()` samples (at most a control block) of the zones' forces
-    /// `forces[z][t]` (already at output gain), writing the microphones' signals;
-    /// the second half of the modes on `helper`, if given one (the samples are
-    /// the same either way). Real-time safe without a helper.
-    pub fn process(
-        &mut self,
-        forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
-        left: &mut [f64],
-        right: &mut [f64],
-        helper: Option<&mut Helper>,
-    ) {
+    /// `forces[z][t]` (already at output gain), writing the microphones'
+    /// signals. Real-time safe.
+    pub fn process(&mut self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], left: &mut [f64], right: &mut [f64]) {
         if self.split {
-            self.process_split(forces, forces, left, right, helper);
+            self.process_split(forces, forces, left, right);
             return;
         }
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
@@ -357,7 +350,7 @@ impl Soundboard {
             right[..n].fill(0.0);
             return;
         }
-        self.run_side(0, forces, &active[..count], n, helper);
+        self.run_side(0, forces, &active[..count], n);
         let [acc_l, acc_r] = &*self.acc;
         heard(&acc_l[..n], &self.direct[0], forces, &active[..count], &mut left[..n]);
         heard(&acc_r[..n], &self.direct[1], forces, &active[..count], &mut right[..n]);
@@ -374,7 +367,6 @@ impl Soundboard {
         right_forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
         left: &mut [f64],
         right: &mut [f64],
-        mut helper: Option<&mut Helper>,
     ) {
         let n = left.len().min(right.len()).min(CONTROL_BLOCK);
         let ((active_l, count_l), (active_r, count_r)) =
@@ -391,8 +383,8 @@ impl Soundboard {
             self.right_im.copy_from_slice(&self.im);
             self.split = true;
         }
-        self.run_side(0, left_forces, &active_l[..count_l], n, helper.as_deref_mut());
-        self.run_side(1, right_forces, &active_r[..count_r], n, helper);
+        self.run_side(0, left_forces, &active_l[..count_l], n);
+        self.run_side(1, right_forces, &active_r[..count_r], n);
         heard(&self.acc[0][..n], &self.direct[0], left_forces, &active_l[..count_l], &mut left[..n]);
         heard(&self.spare[1][..n], &self.direct[1], right_forces, &active_r[..count_r], &mut right[..n]);
         self.finish(&mut left[..n], &mut right[..n], pushed);
@@ -414,14 +406,7 @@ impl Soundboard {
     /// Run `n` samples of the `active` zones' forces through the modes as
     /// the left microphone hears them (`side` 0: into `acc`) or the right (1:
     /// the split modes, into `spare`).
-    fn run_side(
-        &mut self,
-        side: usize,
-        forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
-        active: &[usize],
-        n: usize,
-        helper: Option<&mut Helper>,
-    ) {
+    fn run_side(&mut self, side: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize], n: usize) {
         // The active zones' forces side by side, in single precision, for the kernel.
         let mut pushes = [[0.0f32; CONTROL_BLOCK]; MAX_ZONES];
         for (push, &z) in pushes.iter_mut().zip(active) {
@@ -442,7 +427,7 @@ impl Soundboard {
         let (pole_re, pole_im, held_re, held_im, shape) =
             (&self.pole_re, &self.pole_im, &self.held_re, &self.held_im, &self.shape);
         let pushes = &pushes;
-        let first = || {
+        {
             acc_l[..n].fill([0.0; LANES]);
             acc_r[..n].fill([0.0; LANES]);
             let modes = Modes {
@@ -456,8 +441,8 @@ impl Soundboard {
                 out: [&lr[..h], &li[..h], &rr[..h], &ri[..h]],
             };
             run_block(modes, pushes, active, &mut acc_l[..n], &mut acc_r[..n]);
-        };
-        let second = || {
+        }
+        {
             half_l[..n].fill([0.0; LANES]);
             half_r[..n].fill([0.0; LANES]);
             let modes = Modes {
@@ -471,8 +456,7 @@ impl Soundboard {
                 out: [&lr[h..], &li[h..], &rr[h..], &ri[h..]],
             };
             run_block(modes, pushes, active, &mut half_l[..n], &mut half_r[..n]);
-        };
-        crate::share::both(helper, first, second);
+        }
         add_halves(&mut acc_l[..n], &half_l[..n]);
         add_halves(&mut acc_r[..n], &half_r[..n]);
     }
@@ -890,7 +874,7 @@ mod tests {
             let mut states: Vec<Complex64> = planned.iter().map(|m| m.held * m.shape[0]).collect();
             for b in 0..blocks {
                 let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-                body.process(&forces, &mut l, &mut r, None);
+                body.process(&forces, &mut l, &mut r);
                 for t in 0..CONTROL_BLOCK {
                     let f = forces[0][t];
                     for (mic, heard) in [l[t], r[t]].into_iter().enumerate() {
@@ -931,7 +915,7 @@ mod tests {
                 let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
                 let mut blocks = 0;
                 loop {
-                    body.process(&forces, &mut l, &mut r, None);
+                    body.process(&forces, &mut l, &mut r);
                     forces[0][0] = 0.0;
                     blocks += 1;
                     let subnormal = body.re.iter().chain(&body.im).flatten().any(|v| v.is_subnormal());
@@ -972,7 +956,7 @@ mod tests {
                     *force = (2.0 * PI * f * time).sin();
                 }
                 let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
-                body.process(&forces, &mut l, &mut r, None);
+                body.process(&forces, &mut l, &mut r);
                 if b >= blocks / 2 {
                     sum_l += l.iter().map(|v| v * v).sum::<f64>();
                     sum_r += r.iter().map(|v| v * v).sum::<f64>();

@@ -419,7 +419,7 @@ fn play_board(
             }
         }
         let n = chunk.len();
-        soundboard.process(&zone_forces, &mut left[..n], &mut right[..n], None);
+        soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
         for t in 0..n {
             heard(c * CONTROL_BLOCK + t, left[t], right[t]);
         }

@@ -34,16 +34,13 @@ pub use workshop::{Delivery, OfflineBuilds, REBUILD_SPACING_S, Workshop};
 use crate::body::boards;
 use crate::body::load::BoardLoad;
 use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard};
-use crate::body::{Bridge, BridgePoint, Output};
+use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, LiveVoicing, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
-use crate::share::{CachePadded, Helper};
 use crate::string::StringError;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
-use std::marker::PhantomData;
-use std::sync::atomic::{AtomicBool, Ordering};
 use sympathy::Sympathy;
 
 pub use crate::CONTROL_BLOCK;
@@ -228,35 +225,8 @@ pub struct Instrument {
     bridge: Box<Bridge>,
     soundboard: Soundboard,
     heard: Box<[[f64; CONTROL_BLOCK]; 2]>,
-    /// The stretch before's bridge, while a shared render runs its body
-    /// beside this stretch's keys ([`Synth::stretch_beside`]).
-    bridge_before: Box<Bridge>,
-    /// What each key did over a stretch, by its index (while sharing).
-    rows: Vec<KeyRow>,
-    /// While stretches run beside the body: the keys' rows of the stretch
-    /// before (`rows` then, swapped in), and that stretch's length and
-    /// whether the body runs once per microphone, if its bridge is still to
-    /// be driven: the helper drives it before running the body over it,
-    /// while the calling thread trades among the strings.
-    rows_before: Vec<KeyRow>,
-    drive_before: Option<(usize, bool)>,
-    /// Where the keys are cut for sharing (those from `half` on go to the
-    /// helper), set at each control block so that `low_share` of their
-    /// estimated work lies below: a share that follows how long each half
-    /// took, one for each block of the sympathetic trade's round (a block's
-    /// trade, on the calling thread, costs as its keys that take do).
-    half: usize,
-    low_share: [f64; SYMPATHY_BLOCKS],
-    /// Each key's estimated work ([`Key::work`], none while silent) as last
-    /// weighed: once a round of the trade, and at every control block while
-    /// a key was struck since or a string was in contact (weighing every key
-    /// took 0.7 us a control block, a sixteenth of a shared stretch).
-    key_work: Vec<u32>,
-    blocks_since_weighed: usize,
-    reweigh: bool,
-    /// The estimated work of the next control block, while sharing: its
-    /// keys' ([`Key::work`]) and its body's modes while they ring.
-    work: usize,
+    /// A key's force over a stretch, as it sounds.
+    force: Box<[f64; CONTROL_BLOCK]>,
     /// The pairs of partials of different keys that trade through the body.
     sympathy: Sympathy,
 }
@@ -399,31 +369,21 @@ impl Instrument {
         for (k, key, v) in &mut voiced {
             key.bear_on(board.zone_share(*k), v.level * v.peak_cut().min(headroom));
         }
-        let key_count = keys.len();
         Ok(Self {
             settings: settings.clone(),
             keys,
             route,
             touch: settings.kind.touch_range(),
             bridge: Box::default(),
-            bridge_before: Box::default(),
             soundboard,
-            rows: vec![KeyRow::default(); key_count],
-            rows_before: vec![KeyRow::default(); key_count],
-            drive_before: None,
-            half: 0,
-            low_share: [0.5; SYMPATHY_BLOCKS],
-            key_work: vec![0; key_count],
-            blocks_since_weighed: 0,
-            reweigh: true,
-            work: 0,
+            force: Box::new([0.0; CONTROL_BLOCK]),
             heard: Box::new([[0.0; CONTROL_BLOCK]; 2]),
             sympathy,
         })
     }
 
     /// Add what `output` hears of this stretch to `left` and `right`.
-    fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64], helper: Option<&mut Helper>) {
+    fn listen(&mut self, output: Output, left: &mut [f64], right: &mut [f64]) {
         match output {
             Output::BridgeForce => {
                 // The body is not heard: it does not ring on either (heard again, it
@@ -437,7 +397,7 @@ impl Instrument {
             }
             Output::Microphones => {
                 let n = self.bridge.len();
-                run_body(&mut self.soundboard, &self.bridge, &mut self.heard, helper);
+                run_body(&mut self.soundboard, &self.bridge, &mut self.heard);
                 let [heard_l, heard_r] = &*self.heard;
                 left.iter_mut().zip(&heard_l[..n]).for_each(|(o, v)| *o += v);
                 right.iter_mut().zip(&heard_r[..n]).for_each(|(o, v)| *o += v);
@@ -449,79 +409,13 @@ impl Instrument {
         &self.settings
     }
 
-    /// Cut the keys where the share [`Self::low_share`] of the sounding ones'
-    /// work lies below, for a control block at `phase` of the trade's round.
-    fn balance(&mut self, phase: usize) {
-        self.blocks_since_weighed += 1;
-        if self.reweigh || self.blocks_since_weighed >= SYMPATHY_BLOCKS {
-            let mut contact = false;
-            for (w, key) in self.key_work.iter_mut().zip(&self.keys) {
-                let key = key.as_ref().filter(|k| k.is_sounding());
-                contact |= key.is_some_and(Key::in_contact);
-                *w = key.map_or(0, |k| k.work().min(u32::MAX as usize) as u32);
-            }
-            (self.reweigh, self.blocks_since_weighed) = (contact, 0);
-        }
-        let low_share = self.low_share[phase % SYMPATHY_BLOCKS];
-        let keys = self.key_work.iter().map(|&w| w as usize).sum::<usize>();
-        self.work = keys + if self.soundboard.is_resting() { 0 } else { self.soundboard.mode_count() };
-        let total = keys as f64;
-        let mut below = 0.0;
-        self.half = self.key_work.len();
-        for (k, &work) in self.key_work.iter().enumerate() {
-            if below >= low_share * total {
-                self.half = k;
-                break;
-            }
-            below += f64::from(work);
-        }
-    }
-
-    /// Sound every key for `n` samples, the keys from [`Self::half`] on on
-    /// `helper` if given one, and drive the bridge with them in the keys'
-    /// order (so where the keys were cut does not change a sample); `watch`
-    /// (a key, its scope) records.
-    /// (`phase`: the control block's in the trade's round.)
-    fn sound(
-        &mut self,
-        n: usize,
-        phase: usize,
-        helper: Option<&mut Helper>,
-        mut watch: Option<(u8, &mut ScopeWriter)>,
-    ) {
-        let Some(helper) = helper else {
-            // One thread: each key drives the bridge as soon as it has sounded.
-            let force = &mut self.rows[0].force[..n];
-            for key in self.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
-                sound_key(key, force, watch.as_mut());
-                key.drive(&mut self.bridge, force);
-            }
-            return;
-        };
-        let half = self.half.min(self.keys.len());
-        let (low, high) = self.keys.split_at_mut(half);
-        let (rows_low, rows_high) = self.rows.split_at_mut(half);
-        let (watch_low, watch_high) = match watch {
-            Some((k, scope)) if (k as usize) < half => (Some((k, scope)), None),
-            other => (None, other),
-        };
-        let (mut low_s, mut high_s) = (0.0, 0.0);
-        helper.join(
-            || low_s = sound_keys(low, rows_low, n, watch_low).0,
-            || high_s = sound_keys(high, rows_high, n, watch_high).0,
-        );
-        self.drive_sounded(n);
-        self.even_out(phase, low_s, high_s);
-    }
-
-    /// Drive the bridge with the rows of force of the keys that sounded over
-    /// the stretch's `n` samples, in the keys' order (so where they were cut
-    /// between two threads changes no sample).
-    fn drive_sounded(&mut self, n: usize) {
-        for (key, row) in self.keys.iter_mut().zip(&self.rows).filter(|(_, row)| row.sounded) {
-            if let Some(key) = key.as_mut() {
-                key.drive(&mut self.bridge, &row.force[..n]);
-            }
+    /// Sound every key for `n` samples, each driving the bridge as soon as it
+    /// has sounded; `watch` (a key, its scope) records.
+    fn sound(&mut self, n: usize, mut watch: Option<(u8, &mut ScopeWriter)>) {
+        let force = &mut self.force[..n];
+        for key in self.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
+            sound_key(key, force, watch.as_mut());
+            key.drive(&mut self.bridge, force);
         }
     }
 
@@ -531,34 +425,6 @@ impl Instrument {
         let split = output == Output::Microphones
             && (self.soundboard.is_split() || self.keys.iter().flatten().any(|k| k.is_sounding() && k.is_placed()));
         self.bridge.start(n, output == Output::BridgeForce, split);
-    }
-
-    /// The bridge of the stretch of `n` samples the keys just sounded, heard
-    /// through the microphones: started and driven now if a sounding key
-    /// has a place of its own (`placed`), else left for [`drive_rows`] to
-    /// drive as the keys' rows say (beside the next stretch's trade, or
-    /// before its body runs alone). The same bridge either way.
-    fn leave_bridge(&mut self, n: usize, placed: bool) {
-        if placed {
-            self.start_bridge(n, Output::Microphones);
-            self.drive_sounded(n);
-        } else {
-            self.drive_before = Some((n, self.soundboard.is_split()));
-        }
-    }
-
-    /// Move the cut between the keys' halves at `phase` of the trade's round
-    /// toward where they would have taken as long as each other, the lower
-    /// half's work having taken `low_s` and the upper's `high_s`.
-    fn even_out(&mut self, phase: usize, low_s: f64, high_s: f64) {
-        if low_s > 0.0 && high_s > 0.0 {
-            // The share below that would have taken as long as the share
-            // above, had each key's work cost what it did, approached gently.
-            let share = &mut self.low_share[phase % SYMPATHY_BLOCKS];
-            let rest = 1.0 - *share;
-            let even = (high_s / rest) / (low_s / *share + high_s / rest);
-            *share = (*share + 0.1 * (even - *share)).clamp(0.05, 0.95);
-        }
     }
 
     fn active_keys(&self) -> impl Iterator<Item = &Key> {
@@ -590,59 +456,24 @@ impl Instrument {
     }
 }
 
-/// Report the keys fallen silent in a control block at `time` (the lower
-/// half's first), as room allows.
-fn push_ended(ended: &mut Vec<KeyEnded>, time: u32, halves: [&Fallen; 2]) {
-    for &key in halves.into_iter().flat_map(Fallen::keys) {
+/// Report the keys fallen silent in a control block at `time`, as room allows.
+fn push_ended(ended: &mut Vec<KeyEnded>, time: u32, fallen: &Fallen) {
+    for &key in fallen.keys() {
         if ended.len() < ended.capacity() {
             ended.push(KeyEnded { time, key });
         }
     }
 }
 
-/// What `soundboard`'s microphones hear of `bridge`'s stretch, into `heard`
-/// (the second half of its modes on `helper`, if given one).
-fn run_body(
-    soundboard: &mut Soundboard,
-    bridge: &Bridge,
-    heard: &mut [[f64; CONTROL_BLOCK]; 2],
-    helper: Option<&mut Helper>,
-) {
+/// What `soundboard`'s microphones hear of `bridge`'s stretch, into `heard`.
+fn run_body(soundboard: &mut Soundboard, bridge: &Bridge, heard: &mut [[f64; CONTROL_BLOCK]; 2]) {
     let n = bridge.len();
     let [heard_l, heard_r] = heard;
     if bridge.is_split() {
         let (l, r) = (bridge.zone_forces(), bridge.zone_forces_right());
-        soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n], helper);
+        soundboard.process_split(l, r, &mut heard_l[..n], &mut heard_r[..n]);
     } else {
-        soundboard.process(bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n], helper);
-    }
-}
-
-/// Start `bridge` for a stretch of `n` samples (split per microphone if
-/// `split`) and drive it with the keys' `rows`, in the keys' order: what
-/// [`Instrument::drive_sounded`] does for keys without a place of their own.
-fn drive_rows(bridge: &mut Bridge, (n, split): (usize, bool), rows: &[KeyRow]) {
-    bridge.start(n, false, split);
-    for row in rows {
-        if let Some(at) = row.push {
-            bridge.drive(at, &row.force[..n]);
-        }
-    }
-}
-
-/// What a key did over a stretch, while sharing ([`sound_keys`]).
-#[derive(Clone, Copy)]
-struct KeyRow {
-    /// Its force, N (at output gain).
-    force: [f64; CONTROL_BLOCK],
-    sounded: bool,
-    /// Where it pushes on the bridge, if it sounded and has no place of its own.
-    push: Option<BridgePoint>,
-}
-
-impl Default for KeyRow {
-    fn default() -> Self {
-        Self { force: [0.0; CONTROL_BLOCK], sounded: false, push: None }
+        soundboard.process(bridge.zone_forces(), &mut heard_l[..n], &mut heard_r[..n]);
     }
 }
 
@@ -677,125 +508,6 @@ impl BeforeKeys {
         let phase = (self.block % SYMPATHY_BLOCKS as u64) as usize;
         sympathy.trade(keys, self.sympathy, sustain, bend, SILENCE, phase);
     }
-}
-
-/// The keys of one instrument, for [`Synth::stretch_beside`]: the calling
-/// thread trades among all of them while the helper runs the body, then each
-/// thread takes its half. Holds the keys' borrow for as long as it lives.
-struct SharedKeys<'a> {
-    start: *mut Option<Key>,
-    len: usize,
-    /// Set once the calling thread is done with every key (or unwinds).
-    released: CachePadded<AtomicBool>,
-    keys: PhantomData<&'a mut [Option<Key>]>,
-}
-
-// SAFETY: the helper's closure holds a `&SharedKeys`; through it, safe code
-// reaches only the flag (`wait`, `release`). Every slice of the keys comes
-// from an unsafe method whose caller keeps the slices from overlapping in
-// time and orders them by the flag (Release, then Acquire), and a key may be
-// used on the helper's thread (`Option<Key>: Send`, checked below).
-unsafe impl Sync for SharedKeys<'_> {}
-
-const _: () = {
-    // What `SharedKeys` hands to the helper must be able to go there.
-    const fn sendable<T: Send>() {}
-    sendable::<Option<Key>>();
-};
-
-impl<'a> SharedKeys<'a> {
-    fn new(keys: &'a mut [Option<Key>]) -> Self {
-        Self {
-            start: keys.as_mut_ptr(),
-            len: keys.len(),
-            released: CachePadded(AtomicBool::new(false)),
-            keys: PhantomData,
-        }
-    }
-
-    /// Every key.
-    ///
-    /// # Safety
-    ///
-    /// Not after [`Self::release`], no other slice from `self` alive while
-    /// this one is, and this one dead before `release` is called.
-    #[allow(clippy::mut_from_ref)]
-    unsafe fn all(&self) -> &mut [Option<Key>] {
-        // SAFETY: `start..start + len` is the slice `new` borrowed, held
-        // unmoved and untouched for `'a`; the caller keeps this the only
-        // slice of it alive.
-        unsafe { std::slice::from_raw_parts_mut(self.start, self.len) }
-    }
-
-    /// Let the other thread take its half.
-    fn release(&self) {
-        self.released.store(true, Ordering::Release);
-    }
-
-    /// The keys below `half` or (`upper`) from `half` on.
-    ///
-    /// # Safety
-    ///
-    /// No two live slices from `self` overlap: each half taken by one
-    /// thread, the lower only once the slice from [`Self::all`] is dead, the
-    /// upper only after [`Self::wait`] has returned, and never by the thread
-    /// that released.
-    #[allow(clippy::mut_from_ref)]
-    unsafe fn half(&self, half: usize, upper: bool) -> &mut [Option<Key>] {
-        let half = half.min(self.len);
-        let (from, len) = if upper { (half, self.len - half) } else { (0, half) };
-        // SAFETY: within the slice `new` borrowed (live, unmoved, reached only
-        // through `self` for `'a`); the caller keeps the halves apart.
-        unsafe { std::slice::from_raw_parts_mut(self.start.add(from), len) }
-    }
-
-    /// Wait until the calling thread has released the keys.
-    fn wait(&self) {
-        crate::share::spin_until(&self.released);
-    }
-}
-
-/// Releases the keys when dropped, so a panic on the calling thread cannot
-/// leave the helper waiting.
-struct Release<'a, 'k>(&'a SharedKeys<'k>);
-
-impl Drop for Release<'_, '_> {
-    fn drop(&mut self) {
-        self.0.release();
-    }
-}
-
-/// A stretch of samples whose body has not run yet: where it starts in the
-/// block being processed, and how long it is.
-#[derive(Clone, Copy, Debug)]
-struct Stretch {
-    pos: usize,
-    len: usize,
-}
-
-/// Each of `keys` that is sounding's force over `n` samples, into its row,
-/// with whether it sounded and where it pushes on the bridge
-/// ([`Key::fixed_bridge_point`]); `watch` (a key, its scope) records the
-/// watched key's contact. How long it took, s, and whether a key that
-/// sounded sounds on with a place of its own.
-fn sound_keys(
-    keys: &mut [Option<Key>],
-    rows: &mut [KeyRow],
-    n: usize,
-    mut watch: Option<(u8, &mut ScopeWriter)>,
-) -> (f64, bool) {
-    let start = std::time::Instant::now();
-    let mut placed = false;
-    for (key, row) in keys.iter_mut().zip(rows.iter_mut()) {
-        (row.sounded, row.push) = (false, None);
-        if let Some(key) = key.as_mut().filter(|k| k.is_sounding()) {
-            sound_key(key, &mut row.force[..n], watch.as_mut());
-            row.sounded = true;
-            row.push = key.fixed_bridge_point();
-            placed |= key.is_sounding() && key.is_placed();
-        }
-    }
-    (start.elapsed().as_secs_f64(), placed)
 }
 
 /// `key`'s force over `force.len()` samples; `watch` (a key, its scope)
@@ -945,10 +657,6 @@ pub struct Synth {
     outlet: Outlet,
     ended: Vec<KeyEnded>,
     scope: ScopeWriter,
-    /// The thread that runs the second halves of the keys and of the body
-    /// (or the upper keys after the body over the stretch before), offline
-    /// (see [`crate::share`]).
-    helper: Option<Helper>,
     /// The voicing the player asks for now: what of it the instrument was not
     /// built with, it takes live ([`Self::set_voicing`]); what the keys have
     /// taken of it, when, and whether a new damping waits for its turn.
@@ -1014,7 +722,6 @@ impl Synth {
             outlet: Outlet::new(fs),
             ended: Vec::with_capacity(1024),
             scope,
-            helper: None,
             voicing,
             live: LiveVoicing::default(),
             live_taken_at: 0,
@@ -1159,10 +866,6 @@ impl Synth {
                 self.retire(previous);
             }
         }
-        if self.helper.is_some() {
-            let phase = self.trade_phase();
-            self.current.balance(phase);
-        }
         self.outlet.set_rate(self.current.settings.sample_rate_hz);
         self.take_live_voicing(true);
     }
@@ -1188,34 +891,6 @@ impl Synth {
         self.retire(instrument);
     }
 
-    /// Share the work with a helper thread (`true`), or keep it on the
-    /// calling thread (`false`, the default, and what the audio thread must
-    /// do). For offline renders; the samples are the same either way. Starts
-    /// or stops the thread: not real-time safe.
-    pub fn share_work(&mut self, share: bool) -> std::io::Result<()> {
-        self.helper = if share { Some(self.helper.take().map_or_else(Helper::start, Ok)?) } else { None };
-        let phase = self.trade_phase();
-        for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            instrument.balance(phase);
-        }
-        Ok(())
-    }
-
-    /// Share the work with a helper thread, handing every piece over
-    /// whether or not that pays (for tests that must see it shared).
-    pub fn share_all_work(&mut self) -> std::io::Result<()> {
-        self.share_work(true)?;
-        if let Some(helper) = self.helper.as_mut() {
-            helper.always_hand_over();
-        }
-        Ok(())
-    }
-
-    /// Whether the work is shared with a helper thread.
-    pub fn shares_work(&self) -> bool {
-        self.helper.is_some()
-    }
-
     /// Render `left.len()` samples (`right` the same length), applying `events`
     /// (sorted by time) at their sample positions. Real-time safe.
     pub fn process(&mut self, events: &[TimedEvent], left: &mut [f32], right: &mut [f32]) {
@@ -1232,18 +907,9 @@ impl Synth {
         debug_assert_eq!(left.len(), right.len());
         let n = left.len().min(right.len());
         self.ended.clear();
-        // While sharing: the work this call does, judged against its time.
-        let started = self.helper.is_some().then(std::time::Instant::now);
-        let (mut work, mut blocks) = (0, 0);
         let mut pos = 0;
         let mut next_event = 0;
-        // While sharing, the stretch whose body runs beside the next one's keys.
-        let mut before = None;
         while pos < n {
-            if next_event < events.len() && (events[next_event].time as usize) <= pos {
-                // (An event may change what the body's samples go through.)
-                self.finish_before(before.take(), left, right);
-            }
             while next_event < events.len() && (events[next_event].time as usize) <= pos {
                 self.handle(events[next_event].event);
                 next_event += 1;
@@ -1257,29 +923,16 @@ impl Synth {
             // catch the moment of peak contact (chunking never changes the samples).
             let chunk = if self.scope.recording() { SCOPE_CHUNK } else { CONTROL_BLOCK };
             let len = (n - pos).min(CONTROL_BLOCK - phase).min(chunk).min(until_event - pos);
-            if self.runs_beside() {
-                before = Some(self.stretch_beside((pos, len), (phase == 0, pos as u32), before, left, right));
-            } else {
-                self.finish_before(before.take(), left, right);
-                if phase == 0 {
-                    self.control(pos as u32);
-                }
-                self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
+            if phase == 0 {
+                self.control(pos as u32);
             }
-            if phase == 0 && started.is_some() {
-                work += self.current.work + self.outgoing.as_ref().map_or(0, |o| o.work);
-                blocks += 1;
-            }
+            self.render(&mut left[pos..pos + len], &mut right[pos..pos + len]);
             pos += len;
             self.clock += len as u64;
         }
-        self.finish_before(before.take(), left, right);
         // Events stamped past the block's end still happen, at its end.
         for e in &events[next_event..] {
             self.handle(e.event);
-        }
-        if let (Some(helper), Some(started)) = (self.helper.as_mut(), started) {
-            helper.judge(started.elapsed(), work as f64, blocks);
         }
     }
 
@@ -1386,8 +1039,6 @@ impl Synth {
     }
 
     fn note_on(&mut self, midi_key: u8, velocity: f64) {
-        // (A struck key's work is weighed for the cut at the next control block.)
-        self.current.reweigh = true;
         let Some((key, _)) = self.current.route(midi_key) else { return };
         if !key.is_sounding() {
             self.make_room();
@@ -1458,22 +1109,11 @@ impl Synth {
             self.silence_all(time);
         }
         self.control_before_keys();
-        let (tick, phase) = (self.key_tick(), self.trade_phase());
+        let tick = self.key_tick();
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
-            // Each half of the keys where it sounds (its strings' state stays
-            // in its core's cache), the keys that fell silent in order.
-            let half = instrument.half.min(instrument.keys.len());
-            let (low, high) = instrument.keys.split_at_mut(half);
-            let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
-            crate::share::both(
-                self.helper.as_mut(),
-                || tick.control(low, &mut low_ended),
-                || tick.control(high, &mut high_ended),
-            );
-            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
-            if self.helper.is_some() {
-                instrument.balance(phase);
-            }
+            let mut ended = Fallen::default();
+            tick.control(&mut instrument.keys, &mut ended);
+            push_ended(&mut self.ended, time, &ended);
         }
         // The outgoing instrument leaves once its keys are silent and its body has rung out.
         if let Some(old) = self.outgoing.take_if(|o| o.active_keys().next().is_none() && o.soundboard.is_resting()) {
@@ -1506,12 +1146,6 @@ impl Synth {
         before.run(&mut current.keys, &mut current.sympathy, &mut self.lifting);
     }
 
-    /// Where the control block under way stands in the sympathetic trade's
-    /// round (which keys take this block).
-    fn trade_phase(&self) -> usize {
-        ((self.clock / CONTROL_BLOCK as u64) % SYMPATHY_BLOCKS as u64) as usize
-    }
-
     /// What a control block does before its keys are told, as it stands.
     fn before_keys(&self) -> BeforeKeys {
         BeforeKeys {
@@ -1523,138 +1157,8 @@ impl Synth {
         }
     }
 
-    /// Whether the next stretch may run beside the body of the one before
-    /// ([`Self::stretch_beside`]): shared with a helper, one instrument
-    /// heard through its body, no key watched by the live view.
-    fn runs_beside(&self) -> bool {
-        self.helper.is_some()
-            && self.outgoing.is_none()
-            && self.controls.output == Output::Microphones
-            && self.scope.key().is_none()
-    }
-
-    /// A stretch of `len` samples at `pos` shared with the helper, its keys'
-    /// control block first if one begins here (`control`, at `time`). The
-    /// body is a sink: nothing the keys do waits on it, so its run over the
-    /// stretch `before` is put off to this one and the whole stretch is one
-    /// piece of shared work: the calling thread trades among the strings
-    /// through the body (it reads and moves every key) while the helper
-    /// drives the bridge over the stretch before with the forces the keys
-    /// left in their rows, runs the body over it and writes its samples
-    /// (while a key has a place of its own, whose pan glides as it drives,
-    /// the calling thread drives the bridge once the keys have sounded
-    /// instead); then each tells and sounds its half of the keys. The cores
-    /// wait on each other once a stretch instead of two to four times, and
-    /// the trading, which only one core can do, no longer leaves the other
-    /// idle (but for the body over the last stretch before an event, or a
-    /// host block's end, which runs alone). Every key
-    /// and the body take the same steps, in the same order, as on one
-    /// thread. The stretch `before`'s samples are written to `left` and
-    /// `right` (by the helper); returns this stretch, whose body is still
-    /// to run.
-    fn stretch_beside<T: OutputSample>(
-        &mut self,
-        (pos, len): (usize, usize),
-        (control, time): (bool, u32),
-        before: Option<Stretch>,
-        left: &mut [T],
-        right: &mut [T],
-    ) -> Stretch {
-        let (tick, before_keys, phase) = (self.key_tick(), self.before_keys(), self.trade_phase());
-        let lifting = &mut self.lifting;
-        let instrument = &mut *self.current;
-        std::mem::swap(&mut instrument.bridge, &mut instrument.bridge_before);
-        // (The stretch before's rows, if its bridge is still to be driven.)
-        let drive_before = instrument.drive_before.take();
-        debug_assert!(drive_before.is_none() || before.is_some(), "a bridge left undriven");
-        if drive_before.is_some() {
-            std::mem::swap(&mut instrument.rows, &mut instrument.rows_before);
-        }
-        let half = instrument.half.min(instrument.keys.len());
-        let Instrument { keys, rows, rows_before, soundboard, bridge_before, heard, sympathy, .. } = instrument;
-        let rows_before = &*rows_before;
-        let shared = SharedKeys::new(keys);
-        let (rows_low, rows_high) = rows.split_at_mut(half);
-        let (mut low_placed, mut high_placed) = (false, false);
-        let (mut low_ended, mut high_ended) = (Fallen::default(), Fallen::default());
-        let (mut low_s, mut high_s) = (0.0, 0.0);
-        let (outlet, scope, to) = (&mut self.outlet, &mut self.scope, self.controls.output_gain);
-        crate::share::both(
-            self.helper.as_mut(),
-            || {
-                // (First: whatever happens after, the helper is let go.)
-                let release = Release(&shared);
-                let start = std::time::Instant::now();
-                if control {
-                    // SAFETY: before the release; the only slice alive, dead
-                    // once the trade returns.
-                    before_keys.run(unsafe { shared.all() }, sympathy, lifting);
-                }
-                drop(release);
-                // SAFETY: the lower half, on this thread; `all`'s slice is dead.
-                let low = unsafe { shared.half(half, false) };
-                if control {
-                    tick.control(low, &mut low_ended);
-                }
-                low_placed = sound_keys(low, rows_low, len, None).1;
-                low_s = start.elapsed().as_secs_f64();
-            },
-            || {
-                let start = std::time::Instant::now();
-                if let Some(b) = before {
-                    if let Some(stretch) = drive_before {
-                        drive_rows(bridge_before, stretch, rows_before);
-                    }
-                    run_body(soundboard, bridge_before, heard, None);
-                    outlet.emit(b, heard, to, scope, left, right);
-                }
-                shared.wait();
-                // SAFETY: the upper half, on this thread only, after the
-                // release (the other thread keeps to the lower half now).
-                let high = unsafe { shared.half(half, true) };
-                if control {
-                    tick.control(high, &mut high_ended);
-                }
-                high_placed = sound_keys(high, rows_high, len, None).1;
-                high_s = start.elapsed().as_secs_f64();
-            },
-        );
-        if before.is_some() {
-            // (The cut is weighed only where the helper's half had the body in it.)
-            instrument.even_out(phase, low_s, high_s);
-        }
-        if control {
-            push_ended(&mut self.ended, time, [&low_ended, &high_ended]);
-            // (Cut for the next control block, which the next stretch begins.)
-            instrument.balance(phase + 1);
-        }
-        // (Once the keys are told: which are placed is known then.)
-        instrument.leave_bridge(len, low_placed || high_placed);
-        Stretch { pos, len }
-    }
-
-    /// The body's run over the stretch `before`, the last the keys sounded
-    /// (its halves shared as [`Self::render`] shares them), and its samples
-    /// written to `left` and `right`.
-    fn finish_before<T: OutputSample>(&mut self, before: Option<Stretch>, left: &mut [T], right: &mut [T]) {
-        let Some(b) = before else { return };
-        let instrument = &mut *self.current;
-        if let Some(stretch) = instrument.drive_before.take() {
-            drive_rows(&mut instrument.bridge, stretch, &instrument.rows);
-        }
-        run_body(&mut instrument.soundboard, &instrument.bridge, &mut instrument.heard, self.helper.as_mut());
-        self.emit_before(b, left, right);
-    }
-
-    /// Write the stretch `before`'s samples (its body heard) as
-    /// [`Self::render`] writes a stretch's.
-    fn emit_before<T: OutputSample>(&mut self, before: Stretch, left: &mut [T], right: &mut [T]) {
-        let to = self.controls.output_gain;
-        self.outlet.emit(before, &self.current.heard, to, &mut self.scope, left, right);
-    }
-
     fn render<T: OutputSample>(&mut self, left: &mut [T], right: &mut [T]) {
-        let (n, phase) = (left.len(), self.trade_phase());
+        let n = left.len();
         let [mix_l, mix_r] = &mut *self.outlet.mix;
         mix_l[..n].fill(0.0);
         mix_r[..n].fill(0.0);
@@ -1663,8 +1167,8 @@ impl Synth {
         for (i, instrument) in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()).enumerate() {
             instrument.start_bridge(n, output);
             let watch = scope_key.filter(|_| i == 0).map(|k| (k, &mut self.scope));
-            instrument.sound(n, phase, self.helper.as_mut(), watch);
-            instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n], self.helper.as_mut());
+            instrument.sound(n, watch);
+            instrument.listen(output, &mut mix_l[..n], &mut mix_r[..n]);
         }
         self.write_out(left, right);
     }
@@ -1729,28 +1233,6 @@ impl Outlet {
             heard[t] = 0.5 * (l + rr) as f32;
         }
         scope.samples(&heard[..n]);
-    }
-
-    /// The stretch `before`'s samples, what the body's microphones `heard`,
-    /// written as [`Synth::render`] writes a stretch's.
-    fn emit<T: OutputSample>(
-        &mut self,
-        before: Stretch,
-        heard: &[[f64; CONTROL_BLOCK]; 2],
-        to: f64,
-        scope: &mut ScopeWriter,
-        left: &mut [T],
-        right: &mut [T],
-    ) {
-        let Stretch { pos, len } = before;
-        // (Added to a silent mix, as `render` does: the same zeros' signs.)
-        let [mix_l, mix_r] = &mut *self.mix;
-        mix_l[..len].fill(0.0);
-        mix_r[..len].fill(0.0);
-        let [heard_l, heard_r] = heard;
-        mix_l[..len].iter_mut().zip(&heard_l[..len]).for_each(|(o, v)| *o += v);
-        mix_r[..len].iter_mut().zip(&heard_r[..len]).for_each(|(o, v)| *o += v);
-        self.write(to, scope, &mut left[pos..pos + len], &mut right[pos..pos + len]);
     }
 }
 

@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use crate::console;
-use crate::perf::workload::{Cores, Extras, KeyboardRun, Smoothing};
+use crate::perf::workload::{Extras, KeyboardRun, Smoothing};
 use crate::perf::{self, workload};
 use serde_json::{Map, Value, json};
 use struck_engine::design::InstrumentKind;
@@ -67,8 +67,6 @@ const CHORD10_ALL_BLOCK_MAX: f64 = 0.25;
 /// The gathered free loop against the FMA probe (issue 20).
 const KERNEL_FRACTION_MIN: f64 = 0.9;
 const CHORD32_FACTOR_MIN: f64 = 100.0;
-/// The same on both cores (issue 20), bit-identical to one.
-const CHORD32_THREADS_FACTOR_MIN: f64 = 300.0;
 const IDLE_LOAD_MAX: f64 = 0.01;
 /// An automated voicing parameter bounces offline at least as fast as real
 /// time, over this much audio (times --seconds, at least 1).
@@ -152,8 +150,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         percent(PACED_BUDGET)
     ));
     out.blank();
-    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One, Smoothing::On);
-    let raw_keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Cores::One, Smoothing::Off);
+    let keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Smoothing::On);
+    let raw_keyboard = workload::full_keyboard(held_s, release_s, runs, Extras::Off, Smoothing::Off);
     let period_ms = 1e3 * BLOCK as f64 / SAMPLE_RATE_HZ;
     out.line(format!(
         "full keyboard: {PIANO_KEYS} keys struck one per block and held {:.2} s, pedal down; a 10-key chord (velocity 102) halfway, a 20-key one (120) at three quarters",
@@ -199,8 +197,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The same with everything on.
     out.blank();
-    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One, Smoothing::On);
-    let raw_all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::One, Smoothing::Off);
+    let all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Smoothing::On);
+    let raw_all = workload::full_keyboard(held_s, release_s, runs, Extras::On, Smoothing::Off);
     out.line(
         "full keyboard, everything on: the same with sympathetic strings, phantom partials and the action's sounds"
             .to_string(),
@@ -223,24 +221,6 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     }
     out.line(unsmoothed(&raw_all));
     out.line(after_release(&all));
-
-    // The same again with a second core (no goal: the plugin uses one).
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let helped = (cores > 1)
-        .then(|| workload::full_keyboard(held_s, release_s, runs, Extras::On, Cores::TwoShared, Smoothing::Off));
-    if let Some(helped) = &helped {
-        out.line(
-            "  with a helper thread on a second core taking half of every piece of work, without load smoothing (what a second core would give the plugin, which uses one; no goal):"
-                .to_string(),
-        );
-        for (label, figure) in [
-            ("the 10-key chord's worst block", of_period(helped.chord_block_fraction)),
-            ("the 20-key chord's", of_period(helped.chord20_block_fraction)),
-            ("load (clock time over audio time)", percent(helped.load_fraction)),
-        ] {
-            out.line(format!("    {label:<width$}{figure}", width = LABEL_WIDTH - 4));
-        }
-    }
 
     // Automation bounced offline.
     out.blank();
@@ -267,41 +247,12 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     // The 32-note chord, offline.
     out.blank();
-    let (chord32_factor, chord32_keys, one) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, false);
+    let (chord32_factor, chord32_keys) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs);
     out.line(format!(
         "32-note chord ({chord32_keys} keys) held {CHORD32_HELD_S:.0} s, rendered offline in 512-sample blocks"
     ));
     let pass = goals.check("chord32", chord32_factor, AtLeast, CHORD32_FACTOR_MIN);
     out.goal("speed", format!("{chord32_factor:.1}x real time"), format!(">= {CHORD32_FACTOR_MIN:.0}x"), pass);
-    // The same with a second core (as `struck render` does by default).
-    let threads = if cores > 1 { 2 } else { 1 };
-    // (How far apart the two cores are: on a virtual machine it changes from
-    // minute to minute, and with it what sharing gives. Taken before and
-    // after the shared runs, both reported.)
-    let round_trip = || if threads > 1 { perf::core_round_trip_ns() } else { None };
-    let round_trip_before = round_trip();
-    let (threads_factor, _, shared) = workload::chord32_realtime_factor(CHORD32_HELD_S, runs, threads > 1);
-    let round_trip_after = round_trip();
-    let identical = one.len() == shared.len() && one.iter().zip(&shared).all(|(a, b)| a.to_bits() == b.to_bits());
-    let same = goals.check("chord32_threads_identical", f64::from(u8::from(identical)), AtLeast, 1.0);
-    let pass = goals.check("chord32_threads", threads_factor, AtLeast, CHORD32_THREADS_FACTOR_MIN) && same;
-    out.goal(
-        &format!("on {threads} threads"),
-        format!(
-            "{threads_factor:.1}x real time ({:.2}x one thread), {}",
-            threads_factor / chord32_factor,
-            if identical { "bit-identical" } else { "NOT bit-identical to one thread" }
-        ),
-        format!(">= {CHORD32_THREADS_FACTOR_MIN:.0}x"),
-        pass,
-    );
-    if let (Some(before), Some(after)) = (round_trip_before, round_trip_after) {
-        out.line(format!(
-            "  {:<width$}{before:.0} ns before, {after:.0} ns after (what each hand-over waits on; no goal)",
-            "a round trip between the two cores",
-            width = LABEL_WIDTH - 2
-        ));
-    }
 
     // Silence.
     out.blank();
@@ -380,13 +331,6 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "latency_samples": latency,
                 "unsmoothed": unsmoothed_json(&raw_all),
             },
-            "full_keyboard_all_helper": helped.map(|h| json!({
-                "threads": 2,
-                "load_fraction": h.load_fraction,
-                "worst_block_fraction": h.worst_block_fraction,
-                "chord10_block_fraction": h.chord_block_fraction,
-                "chord20_block_fraction": h.chord20_block_fraction,
-            })),
             "chord10": {
                 "keys": workload::CHORD10.len(),
                 "velocity": (workload::VELOCITY * 127.0).round() as u8,
@@ -442,11 +386,6 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
                 "held_s": CHORD32_HELD_S,
                 "keys": chord32_keys,
                 "realtime_factor": chord32_factor,
-                "threads": threads,
-                "realtime_factor_threads": threads_factor,
-                "threads_identical": identical,
-                "core_round_trip_ns": round_trip_before,
-                "core_round_trip_ns_after": round_trip_after,
             },
             "idle": {
                 "audio_s": idle_s,

@@ -50,7 +50,7 @@ enum Command {
     /// Simulate one strike case and write its metrics and trace.
     #[command(long_about = "Simulate one string excited once, as described by a strike case \
                             (a JSON file: sample_rate_hz, duration_s, string {...}, exciter {...}; \
-                            the README describes every field), and write DIR/metrics.json (contacts, contact time, \
+                            docs/lab.md describes every field), and write DIR/metrics.json (contacts, contact time, \
                             peak force, rebound, bridge-force RMS, spectral centroid, the first 20 \
                             partials, the derived string) and DIR/trace.csv (one row per sample: \
                             t_s, contact_force_n, bridge_force_n, exciter_position_m, \
@@ -68,14 +68,11 @@ enum Command {
                             under 40 % of the block's 1.33 ms) and with everything on: sympathetic \
                             strings, phantom partials and the action's sounds (load under 10 %, the \
                             10-key chord's worst block under 25 %, the 20-key chord's under 40 %). \
-                            With two cores or more, the everything-on keyboard runs again with a \
-                            helper thread taking half of every piece of work \
-                            (full_keyboard_all_helper; no goal: the plugin uses one core). Also: \
+                            Also: \
                             the load after every key comes up (no more than while held); the \
                             free-mode kernel on 10240 modes against a multiply-add probe of the \
                             machine (at least 0.9 of it); a 32-note chord held 10 s rendered \
-                            offline, on one thread (at least 100x real time) and on two \
-                            (at least 300x, bit-identical to one); the piano idle (under 1 % of a \
+                            offline (at least 100x real time); the piano idle (under 1 % of a \
                             core); and a C2 string while its hammer is on it (mode-steps per \
                             second, no goal). Each workload runs --runs times and the fastest is \
                             kept; --seconds scales the run. Every figure is printed with its goal \
@@ -87,7 +84,7 @@ enum Command {
                             meaningful figures. A bad argument is refused with exit status 2 and \
                             one line.")]
     Bench(bench::BenchArgs),
-    /// Play a MIDI file through the instrument and write a WAV.
+    /// Play MIDI files through the instrument and write WAVs.
     #[command(long_about = "Play a standard MIDI file (format 0 or 1; tempo changes and SMPTE \
                             timing honoured; every channel but 10 merged onto the one instrument) \
                             through the same real-time synth the plugin runs, and write a stereo \
@@ -96,6 +93,8 @@ enum Command {
                             sostenuto (CC66), una corda (CC67), all sound off (CC120), reset \
                             controllers (CC121), all notes off (CC123) and pitch bend are played. \
                             The samples are the same on every run and for every --block-size. \
+                            Several songs are rendered at once, one a core, into the folder --out \
+                            names (a.mid -> a.wav), each the same as rendered alone. \
                             Tuning: --a4, --temperament, --stretch, or a Scala scale (--scl, --kbm). \
                             A bad argument, preset, tuning file or MIDI file is refused with exit \
                             status 2 and one line naming it; no WAV is written then, and an \

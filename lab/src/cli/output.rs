@@ -160,6 +160,17 @@ fn write_failure(verb: &str, path: &Path, error: &io::Error) -> Failure {
     }
 }
 
+/// The failure to write `named` through its `temporary` for `error`: a write
+/// past `ulimit -f` (which the writer may have wrapped; the file's length
+/// tells) says so, any other as [`write_failure`] does.
+pub fn staged_write_failure(named: &Path, temporary: &Path, error: &io::Error) -> Failure {
+    let limit = room::at_file_size_limit(temporary).or_else(|| room::file_size_error(&error.to_string()));
+    match limit {
+        Some(limit) => room::file_size_failure(named, limit),
+        None => write_failure("write", named, error),
+    }
+}
+
 /// Where writing `path` lands: `path` itself, or if it is a symbolic link the
 /// file it leads to (through any chain of links). A link that leads nowhere
 /// is refused rather than written through.
@@ -269,16 +280,20 @@ impl Staged {
                 staging.written = true;
                 Ok(())
             }
-            Err(e) => {
-                // (A write past `ulimit -f` fails with an error the writer may
-                // have wrapped; the file's length tells.)
-                let limit =
-                    room::at_file_size_limit(&staging.temporary).or_else(|| room::file_size_error(&e.to_string()));
-                Err(match limit {
-                    Some(limit) => room::file_size_failure(named, limit),
-                    None => write_failure("write", named, &e),
-                })
-            }
+            Err(e) => Err(staged_write_failure(named, &staging.temporary, &e)),
+        }
+    }
+
+    /// The temporary file reserved as `slot`, for a writer on another thread
+    /// (then [`Self::mark_written`]).
+    pub fn temporary(&self, slot: Slot) -> &Path {
+        &self.files[slot.0].temporary
+    }
+
+    /// The file reserved as `slot` was written at [`Self::temporary`].
+    pub fn mark_written(&mut self, slot: Slot) {
+        if let Some(staging) = self.files.get_mut(slot.0) {
+            staging.written = true;
         }
     }
 

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
 use struck_engine::body::Output;
 use struck_engine::body::soundboard::Perspective;
 use struck_engine::design::InstrumentKind;
@@ -25,7 +26,7 @@ use struck_engine::preset::Preset;
 use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
 use struck_engine::tuning::{A4_RANGE_HZ, KeyboardMapping, ScalaScale, Temperament, TuningSettings};
 
-use super::output::Staged;
+use super::output::{Slot, Staged, staged_write_failure};
 use crate::cli::Failure;
 use crate::console;
 use crate::midi_file::{self, ReadOptions};
@@ -44,16 +45,16 @@ pub const WAV_HEADER_BYTES: u64 = 68;
 /// it is played): at most 20 MB measured for every instrument, rounded up.
 const RENDER_PEAK_BYTES: u64 = 32 << 20;
 
-/// Samples between progress-bar updates.
-const PROGRESS_EVERY: u64 = 1 << 15;
-
 #[derive(clap::Args)]
 pub struct RenderArgs {
-    /// The song: a standard MIDI file, format 0 or 1.
-    pub song: PathBuf,
-    /// The WAV to write (stereo, 32-bit float). An existing file is replaced only
-    /// once the render is complete.
-    #[arg(long, value_name = "FILE")]
+    /// The songs: standard MIDI files, format 0 or 1. Several are rendered at
+    /// once, one a core, each as it would be alone.
+    #[arg(required = true, num_args = 1.., value_name = "SONG")]
+    pub songs: Vec<PathBuf>,
+    /// The WAV to write (stereo, 32-bit float); with several songs, the folder
+    /// their WAVs are written into, each named after its song (a.mid -> a.wav).
+    /// An existing file is replaced only once every render is complete.
+    #[arg(long, value_name = "FILE|DIR")]
     pub out: PathBuf,
     /// piano|fortepiano|santoor|dulcimer|cimbalom|clavichord|harpsichord [default: the
     /// preset's, else piano]
@@ -117,14 +118,34 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     pub mpe: Option<f64>,
-    /// Render on one thread. By default a second core takes half of the keys and
-    /// of the body (when the machine has one) while a trial now and then finds
-    /// that faster; the samples are the same either way.
-    #[arg(long)]
-    pub one_thread: bool,
     /// Print nothing on success (and show no progress bar).
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// One song to render: read and checked, its WAV reserved.
+struct Job {
+    out: PathBuf,
+    shown: String,
+    events: Vec<(u64, Event)>,
+    notes: usize,
+    playable: usize,
+    total: u64,
+    slot: Slot,
+}
+
+/// What a render gave.
+struct Rendered {
+    peak: f32,
+    wall_s: f64,
+    guard: Option<String>,
+}
+
+/// Why a render stopped.
+enum Stopped {
+    Interrupted,
+    NonFinite(u64),
+    Write(io::Error),
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), Failure> {
@@ -140,33 +161,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         Some(name) => name.parse::<InstrumentKind>().map_err(|e| Failure::bad_input(format!("--instrument: {e}")))?,
         None => preset.instrument.unwrap_or_default(),
     };
-
-    let shown = super::shown(&args.song);
-    let bytes = super::input::read(&args.song, super::input::MAX_SONG_BYTES)?;
     let mpe_bend_range = check_mpe(args.mpe)?;
     let options = ReadOptions { include_channel_10: args.include_channel_10, mpe_bend_range };
-    let song =
-        midi_file::read(&bytes, sample_rate_hz, options).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
-    let keys = kind.key_range();
-    let playable: usize = keys.clone().map(|k| song.notes_per_key[usize::from(k)]).sum();
-    let notes = song.note_count();
-    if playable == 0 {
-        return Err(Failure::bad_input(format!(
-            "{shown}: none of its {} is on the {kind}'s keys (MIDI {}..={})",
-            count(notes, "note"),
-            keys.start(),
-            keys.end()
-        )));
-    }
-
-    let fs_hz = f64::from(sample_rate_hz);
-    let total = song.last_sample() + (tail_s * fs_hz).round() as u64;
-    if total.saturating_mul(8) > MAX_WAV_DATA_BYTES {
-        return Err(Failure::bad_input(format!(
-            "{shown}: {:.0} s at {sample_rate_hz} Hz would exceed the 4 GB a WAV file can hold",
-            total as f64 / fs_hz
-        )));
-    }
+    let outs = outputs(&args.songs, &args.out)?;
 
     let tuned = tuning != TuningSettings::default();
     let mut controls = preset.controls;
@@ -184,71 +181,255 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .find(|p| p.name().eq_ignore_ascii_case(name))
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
-    let settings = Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_hz);
-    // The WAV's temporary is made beside it now: an --out that cannot be
-    // written is refused before the instrument is built (a second or more).
-    let inputs: Vec<&Path> =
-        [Some(args.song.as_path()), args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()]
-            .into_iter()
-            .flatten()
-            .collect();
+    let settings =
+        Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_of(sample_rate_hz));
+
+    // Every song is read and checked, and every WAV's temporary made beside
+    // it, before anything is built or rendered: a bad song or an --out that
+    // cannot be written is refused with nothing written.
+    let inputs: Vec<&Path> = args
+        .songs
+        .iter()
+        .map(PathBuf::as_path)
+        .chain([args.preset.as_deref(), args.scl.as_deref(), args.kbm.as_deref()].into_iter().flatten())
+        .collect();
     let mut staged = Staged::reading(&inputs);
-    let slot = staged.reserve(&args.out)?;
-    super::room::check_file_size(&args.out, WAV_HEADER_BYTES + total * 8)?;
-    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES) {
+    let mut jobs = Vec::with_capacity(args.songs.len());
+    for (song, out) in args.songs.iter().zip(outs) {
+        let job = read_song(song, out, kind, sample_rate_hz, tail_s, options, &mut staged)?;
+        jobs.push(job);
+    }
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(jobs.len()).max(1);
+    if let Some(room) = super::room::short_of_memory(RENDER_PEAK_BYTES * threads as u64) {
         return Err(Failure::bad_input(format!(
             "the {kind} would hold {} in memory while it plays; {}; nothing was written",
-            super::room::size_text_rounded(RENDER_PEAK_BYTES),
+            super::room::size_text_rounded(RENDER_PEAK_BYTES * threads as u64),
             room.told
         )));
     }
     // Ctrl-C (or SIGTERM) stops after the instrument is built or between
-    // blocks, so nothing (or only the partial file, then removed) is written.
-    let instrument = Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
-        (Some(path), _) => {
-            Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
-        }
-        (None, true) => Failure::bad_input(format!("the {kind} cannot be built in this tuning: {e}")),
-        (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
-    })?;
+    // blocks, so nothing (or only the partial files, then removed) is written.
+    let build = || {
+        Instrument::build(&settings).map_err(|e| match (&args.preset, tuned) {
+            (Some(path), _) => {
+                Failure::bad_input(format!("{}: the {kind} cannot be built with this preset: {e}", path.display()))
+            }
+            (None, true) => Failure::bad_input(format!("the {kind} cannot be built in this tuning: {e}")),
+            (None, false) => Failure::failed(format!("cannot build the {kind}: {e}")),
+        })
+    };
+    // (Built once here, so that a preset or tuning the instrument cannot take
+    // is refused before any render starts; the first song plays it.)
+    let first = build()?;
     if crate::cleanup::interrupted() {
         return Err(Failure::interrupted());
     }
-    let (mut synth, _) = Synth::new(Box::new(instrument));
-    synth.set_controls(controls);
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if !args.one_thread
-        && cores > 1
-        && let Err(e) = synth.share_work(true)
-        && !args.quiet
-    {
-        console::err(format!("struck render: rendering on one thread (a second could not be started: {e})"));
+
+    if !args.quiet {
+        for job in jobs.iter().filter(|j| j.playable < j.notes) {
+            console::err(format!(
+                "struck render: {}: {} of {} are outside the {kind}'s keys (MIDI {}..={}) and stay silent",
+                job.shown,
+                count(job.notes - job.playable, "note"),
+                job.notes,
+                kind.key_range().start(),
+                kind.key_range().end()
+            ));
+        }
     }
 
-    if !args.quiet && playable < notes {
-        console::err(format!(
-            "struck render: {} of {notes} are outside the {kind}'s keys (MIDI {}..={}) and stay silent",
-            count(notes - playable, "note"),
-            keys.start(),
-            keys.end()
-        ));
-    }
-
-    let progress = (!args.quiet && io::stderr().is_terminal()).then(|| progress_bar(total));
-    let started = Instant::now();
+    let all: u64 = jobs.iter().map(|j| j.total).sum();
+    let progress = (!args.quiet && io::stderr().is_terminal()).then(|| progress_bar(all));
     let spec = hound::WavSpec {
         channels: 2,
         sample_rate: sample_rate_hz,
         bits_per_sample: 32,
         sample_format: hound::SampleFormat::Float,
     };
+    let temporaries: Vec<PathBuf> = jobs.iter().map(|j| staged.temporary(j.slot).to_path_buf()).collect();
+    let first = std::sync::Mutex::new(Some(first));
+    let play = |(job, temporary): (&Job, &PathBuf)| -> Result<Rendered, Failure> {
+        let instrument = match first.lock().ok().and_then(|mut f| f.take()) {
+            Some(built) => built,
+            None => build()?,
+        };
+        let (mut synth, _) = Synth::new(Box::new(instrument));
+        synth.set_controls(controls);
+        let started = Instant::now();
+        let peak = write_wav(&mut synth, job, block_size, spec, temporary, progress.as_ref());
+        let wall_s = started.elapsed().as_secs_f64();
+        let guard = synth.guard();
+        let guard = guard.acted().then(|| guard.describe(fs_of(sample_rate_hz)));
+        match peak {
+            Ok(peak) => Ok(Rendered { peak, wall_s, guard }),
+            Err(Stopped::Interrupted) => Err(Failure::interrupted()),
+            Err(Stopped::NonFinite(sample)) => Err(Failure::failed(format!(
+                "{}: the synth produced a non-finite sample at {:.3} s; nothing was written",
+                job.shown,
+                sample as f64 / fs_of(sample_rate_hz)
+            ))),
+            Err(Stopped::Write(e)) => Err(staged_write_failure(&job.out, temporary, &e)),
+        }
+    };
+    // (Where no thread can be started, the songs play one after another on
+    // this one, with the same samples.)
+    let pool = (threads > 1).then(|| rayon::ThreadPoolBuilder::new().num_threads(threads).build());
+    let results: Vec<Result<Rendered, Failure>> = match pool {
+        Some(Ok(pool)) => pool.install(|| jobs.par_iter().zip(&temporaries).map(play).collect()),
+        other => {
+            if let Some(Err(e)) = other
+                && !args.quiet
+            {
+                console::err(format!("struck render: rendering one song at a time (no thread could be started: {e})"));
+            }
+            jobs.iter().zip(&temporaries).map(play).collect()
+        }
+    };
+    if let Some(bar) = &progress {
+        bar.finish_and_clear();
+    }
+    if crate::cleanup::interrupted() {
+        return Err(Failure::interrupted());
+    }
+    let mut rendered = Vec::with_capacity(results.len());
+    for (job, result) in jobs.iter().zip(results) {
+        rendered.push(result?);
+        staged.mark_written(job.slot);
+    }
+    staged.commit()?;
+
+    for (job, done) in jobs.iter().zip(&rendered) {
+        // The output's guard is a last line: say so whenever it was reached.
+        if let Some(guard) = &done.guard {
+            console::err(format!(
+                "struck render: {}: {guard}; lower the velocities or controls.output_gain",
+                job.shown
+            ));
+        }
+        if args.quiet {
+            continue;
+        }
+        let audio_s = job.total as f64 / fs_of(sample_rate_hz);
+        let peak_note = if done.peak > 0.0 {
+            let db = 20.0 * f64::from(done.peak).log10();
+            let over = if done.peak > 1.0 { " (above full scale: lower controls.output_gain in a preset)" } else { "" };
+            format!("peak {db:+.1} dBFS{over}")
+        } else {
+            "silent".to_string()
+        };
+        // (A scale's description is the file's text: its control characters are shown, not acted on.)
+        let tuning_note = if tuned {
+            format!(" ({})", super::failure::printable(&settings.tuning.describe()))
+        } else {
+            String::new()
+        };
+        console::out(format!(
+            "{} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {:.2} s \
+             ({:.1}x real time), {peak_note}",
+            job.shown,
+            super::shown(&job.out),
+            count(job.notes, "note"),
+            done.wall_s,
+            audio_s / done.wall_s.max(1e-9)
+        ));
+    }
+    Ok(())
+}
+
+fn fs_of(sample_rate_hz: u32) -> f64 {
+    f64::from(sample_rate_hz)
+}
+
+/// Where each song's WAV goes: `out` itself for one song; for several, `out`
+/// is a folder and each WAV is named after its song.
+fn outputs(songs: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>, Failure> {
+    if songs.len() == 1 {
+        return Ok(vec![out.to_path_buf()]);
+    }
+    if out.exists() && !out.is_dir() {
+        return Err(Failure::bad_input(format!(
+            "--out {}: with {} songs, --out is the folder their WAVs go into, and this is a file",
+            super::shown(out),
+            songs.len()
+        )));
+    }
+    let mut outs: Vec<PathBuf> = Vec::with_capacity(songs.len());
+    for song in songs {
+        let stem = song.file_stem().filter(|s| !s.is_empty()).ok_or_else(|| {
+            Failure::bad_input(format!("{}: has no file name to name its WAV after", super::shown(song)))
+        })?;
+        let path = out.join(Path::new(stem).with_extension("wav"));
+        if let Some(other) = outs.iter().position(|o| *o == path) {
+            return Err(Failure::bad_input(format!(
+                "{} and {}: both would be written to {}",
+                super::shown(&songs[other]),
+                super::shown(song),
+                super::shown(&path)
+            )));
+        }
+        outs.push(path);
+    }
+    Ok(outs)
+}
+
+/// Read `song` and check it can be rendered on `kind` into `out` (reserved in `staged`).
+fn read_song(
+    song: &Path,
+    out: PathBuf,
+    kind: InstrumentKind,
+    sample_rate_hz: u32,
+    tail_s: f64,
+    options: ReadOptions,
+    staged: &mut Staged,
+) -> Result<Job, Failure> {
+    let shown = super::shown(song);
+    let bytes = super::input::read(song, super::input::MAX_SONG_BYTES)?;
+    let read =
+        midi_file::read(&bytes, sample_rate_hz, options).map_err(|e| Failure::bad_input(format!("{shown}: {e}")))?;
+    let keys = kind.key_range();
+    let playable: usize = keys.clone().map(|k| read.notes_per_key[usize::from(k)]).sum();
+    let notes = read.note_count();
+    if playable == 0 {
+        return Err(Failure::bad_input(format!(
+            "{shown}: none of its {} is on the {kind}'s keys (MIDI {}..={})",
+            count(notes, "note"),
+            keys.start(),
+            keys.end()
+        )));
+    }
+    let fs_hz = fs_of(sample_rate_hz);
+    let total = read.last_sample() + (tail_s * fs_hz).round() as u64;
+    if total.saturating_mul(8) > MAX_WAV_DATA_BYTES {
+        return Err(Failure::bad_input(format!(
+            "{shown}: {:.0} s at {sample_rate_hz} Hz would exceed the 4 GB a WAV file can hold",
+            total as f64 / fs_hz
+        )));
+    }
+    let slot = staged.reserve(&out)?;
+    super::room::check_file_size(&out, WAV_HEADER_BYTES + total * 8)?;
+    Ok(Job { out, shown, events: read.events, notes, playable, total, slot })
+}
+
+/// Play `job` through `synth` into a WAV at `temporary`; its peak.
+fn write_wav(
+    synth: &mut Synth,
+    job: &Job,
+    block_size: usize,
+    spec: hound::WavSpec,
+    temporary: &Path,
+    progress: Option<&ProgressBar>,
+) -> Result<f32, Stopped> {
     let mut peak = 0.0f32;
     let mut non_finite: Option<u64> = None;
-    let written = staged.fill_with(slot, &args.out, |w| {
-        let mut wav = hound::WavWriter::new(w, spec).map_err(io::Error::other)?;
+    let mut interrupted = false;
+    let written = (|| -> io::Result<()> {
+        let file = std::fs::File::create(temporary)?;
+        let synced = file.try_clone()?;
+        let mut wav = hound::WavWriter::new(io::BufWriter::new(file), spec).map_err(io::Error::other)?;
         let mut done = 0u64;
-        render(&mut synth, &song.events, total, block_size, |left, right| {
+        render(synth, &job.events, job.total, block_size, |left, right| {
             if crate::cleanup::interrupted() {
+                interrupted = true;
                 return Err(io::Error::other("interrupted"));
             }
             for (&l, &r) in left.iter().zip(right) {
@@ -261,60 +442,20 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
                 wav.write_sample(r).map_err(io::Error::other)?;
                 done += 1;
             }
-            if let Some(bar) = &progress
-                && (done % PROGRESS_EVERY < left.len() as u64 || done == total)
-            {
-                bar.set_position(done);
+            if let Some(bar) = progress {
+                bar.inc(left.len() as u64);
             }
             Ok(())
         })?;
-        wav.finalize().map_err(io::Error::other)
-    });
-    if let Some(bar) = &progress {
-        bar.finish_and_clear();
+        wav.finalize().map_err(io::Error::other)?;
+        synced.sync_all()
+    })();
+    match (written, non_finite) {
+        (_, Some(sample)) => Err(Stopped::NonFinite(sample)),
+        (Err(_), None) if interrupted => Err(Stopped::Interrupted),
+        (Err(e), None) => Err(Stopped::Write(e)),
+        (Ok(()), None) => Ok(peak),
     }
-    if crate::cleanup::interrupted() {
-        return Err(Failure::interrupted());
-    }
-    if let Some(sample) = non_finite {
-        return Err(Failure::failed(format!(
-            "the synth produced a non-finite sample at {:.3} s; nothing was written",
-            sample as f64 / fs_hz
-        )));
-    }
-    written?;
-    staged.commit()?;
-    // The output's guard is a last line: say so whenever it was reached.
-    let guard = synth.guard();
-    if guard.acted() {
-        console::err(format!("struck render: {}; lower the velocities or controls.output_gain", guard.describe(fs_hz)));
-    }
-
-    if !args.quiet {
-        let wall_s = started.elapsed().as_secs_f64();
-        let audio_s = total as f64 / fs_hz;
-        let peak_note = if peak > 0.0 {
-            let db = 20.0 * f64::from(peak).log10();
-            let over = if peak > 1.0 { " (above full scale: lower controls.output_gain in a preset)" } else { "" };
-            format!("peak {db:+.1} dBFS{over}")
-        } else {
-            "silent".to_string()
-        };
-        // (A scale's description is the file's text: its control characters are shown, not acted on.)
-        let tuning_note = if tuned {
-            format!(" ({})", super::failure::printable(&settings.tuning.describe()))
-        } else {
-            String::new()
-        };
-        console::out(format!(
-            "{shown} -> {}: {kind}{tuning_note}, {}, {audio_s:.2} s at {sample_rate_hz} Hz in {wall_s:.2} s \
-             ({:.1}x real time), {peak_note}",
-            super::shown(&args.out),
-            count(notes, "note"),
-            audio_s / wall_s.max(1e-9)
-        ));
-    }
-    Ok(())
 }
 
 /// Play `events` (sample times from the start, in order) through `synth` for

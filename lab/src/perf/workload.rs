@@ -130,17 +130,6 @@ pub struct KeyboardRun {
     pub release_s: f64,
 }
 
-/// Who computes a real-time workload's blocks: the audio thread alone (as
-/// the plugin does), or with a helper thread on a second core that takes half
-/// of every piece of work (the offline renders' sharing, every piece handed
-/// over, the audio thread waiting on the helper each block: what the plugin
-/// would get from a second core, which it does not use).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Cores {
-    One,
-    TwoShared,
-}
-
 /// Whether a real-time workload is played with load smoothing, as the plugin
 /// plays by default: the synth [`Paced`], heard 128 samples late, so a burst
 /// of work spreads over the blocks after it. How much of it a block takes
@@ -153,17 +142,9 @@ pub enum Smoothing {
 }
 
 /// The full keyboard held for `held_s` seconds, then released for `release_s`,
-/// fastest block of `runs` runs, with or without the [`Extras`], on one
-/// thread or shared with a helper ([`Cores`]), with or without load
-/// [`Smoothing`].
-pub fn full_keyboard(
-    held_s: f64,
-    release_s: f64,
-    runs: usize,
-    extras: Extras,
-    cores: Cores,
-    smoothing: Smoothing,
-) -> KeyboardRun {
+/// fastest block of `runs` runs, with or without the [`Extras`], with or
+/// without load [`Smoothing`].
+pub fn full_keyboard(held_s: f64, release_s: f64, runs: usize, extras: Extras, smoothing: Smoothing) -> KeyboardRun {
     let period_s = BLOCK as f64 / SAMPLE_RATE_HZ;
     let held_blocks = ((held_s / period_s).ceil() as usize).max(2 * 88);
     let release_blocks = ((release_s / period_s).ceil() as usize).max(1);
@@ -181,10 +162,7 @@ pub fn full_keyboard(
     // (With no latency the synth renders each block as it comes, in one go.)
     let latency = if smoothing == Smoothing::On { Paced::latency_for(SAMPLE_RATE_HZ) } else { 0 };
     for run in 0..runs.max(1) {
-        let (mut synth, _scope) = piano(128, extras);
-        if cores == Cores::TwoShared {
-            synth.share_all_work().expect("a helper thread starts");
-        }
+        let (synth, _scope) = piano(128, extras);
         modes = synth.instrument().mode_count();
         let mut synth = Paced::new(synth, latency);
         let mut times = Vec::with_capacity(held_blocks + release_blocks);
@@ -264,21 +242,17 @@ pub fn full_keyboard(
 }
 
 /// Offline render speed of the 32-note chord held for `held_s`: seconds of audio
-/// per second of computing, fastest of `runs`, on one thread or (`share`)
-/// sharing the work with a second core. Also returns how many keys it sounds,
-/// and the render's samples (the last run's).
-pub fn chord32_realtime_factor(held_s: f64, runs: usize, share: bool) -> (f64, usize, Vec<f32>) {
+/// per second of computing, fastest of `runs`. Also returns how many keys it
+/// sounds.
+pub fn chord32_realtime_factor(held_s: f64, runs: usize) -> (f64, usize) {
     let blocks = (held_s * SAMPLE_RATE_HZ / OFFLINE_BLOCK as f64).ceil() as usize;
     let (mut left, mut right) = (vec![0.0f32; OFFLINE_BLOCK], vec![0.0f32; OFFLINE_BLOCK]);
     let notes: Vec<TimedEvent> =
         chord32().into_iter().map(|key| TimedEvent::new(0, Event::NoteOn { key, velocity: VELOCITY })).collect();
     let mut best = f64::INFINITY;
     let mut keys = 0;
-    let mut samples = Vec::with_capacity(2 * blocks * OFFLINE_BLOCK);
     for _ in 0..runs.max(1) {
         let (mut synth, _) = piano(64, Extras::On);
-        synth.share_work(share).expect("a helper thread starts");
-        samples.clear();
         let mut elapsed = 0.0;
         for b in 0..blocks {
             let events = if b == 0 { &notes[..] } else { &[] };
@@ -288,11 +262,10 @@ pub fn chord32_realtime_factor(held_s: f64, runs: usize, share: bool) -> (f64, u
             if b == 0 {
                 keys = synth.active_keys();
             }
-            samples.extend(left.iter().zip(&right).flat_map(|(l, r)| [*l, *r]));
         }
         best = best.min(elapsed);
     }
-    (blocks as f64 * OFFLINE_BLOCK as f64 / SAMPLE_RATE_HZ / best, keys, samples)
+    (blocks as f64 * OFFLINE_BLOCK as f64 / SAMPLE_RATE_HZ / best, keys)
 }
 
 /// Load of the piano with nothing played, over `audio_s`, fastest of `runs`.

@@ -138,18 +138,18 @@ impl AirCavity {
         let plug_kg = AIR_DENSITY_KG_M3 * self.neck_length_m() * a;
         let top_kg = top.modal_mass_kg;
         let top_k = top_kg * (2.0 * PI * top.frequency_hz).powi(2);
-        // In mass-normalised coordinates the stiffness is symmetric:
-        // [[p, r], [r, d]].
-        let p = (top_k + k * s * s) / top_kg;
-        let r = k * s * a / (top_kg * plug_kg).sqrt();
-        let d = k * a * a / plug_kg;
-        let half_sum = 0.5 * (p + d);
-        let split = (0.25 * (p - d).powi(2) + r * r).sqrt();
-        [half_sum - split, half_sum + split].map(|w2| {
-            // An eigenvector (u_top, u_air) of unit length.
-            let (u_top, u_air) = if r.abs() > 0.0 { (r, w2 - p) } else { (1.0, 0.0) };
-            let norm = u_top.hypot(u_air);
-            let (u_top, u_air) = (u_top / norm, u_air / norm);
+        // In mass-normalised coordinates the stiffness is symmetric; its
+        // eigenvectors (u_top, u_air), of unit length, are the pair's shapes.
+        let stiffness = nalgebra::Matrix2::new(
+            (top_k + k * s * s) / top_kg,
+            k * s * a / (top_kg * plug_kg).sqrt(),
+            k * s * a / (top_kg * plug_kg).sqrt(),
+            k * a * a / plug_kg,
+        );
+        let eigen = stiffness.symmetric_eigen();
+        let mut pair = [0, 1].map(|i| (eigen.eigenvalues[i], eigen.eigenvectors[(0, i)], eigen.eigenvectors[(1, i)]));
+        pair.sort_by(|x, y| x.0.total_cmp(&y.0));
+        pair.map(|(w2, u_top, u_air)| {
             let frequency_hz = w2.max(0.0).sqrt() / (2.0 * PI);
             // Top and plug displacements per unit modal coordinate.
             let (q, z) = (u_top / top_kg.sqrt(), u_air / plug_kg.sqrt());

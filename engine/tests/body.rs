@@ -213,8 +213,8 @@ fn partial_decays_db_s(left: &[f64], right: &[f64], f1_hz: f64, count: usize) ->
         .collect()
 }
 
-/// The issue measured A0's partials 1-10 decaying within 3 % of one rate on the
-/// rigid, resistive bridge. On the body each partial loses energy into the
+/// On the rigid, resistive bridge A0's partials 1-10 decay within 3 % of one
+/// rate. On the body each partial loses energy into the
 /// board as its admittance at that frequency says: on a resonance fast,
 /// between two slowly.
 #[test]

@@ -56,15 +56,15 @@ const CHORD32_HELD_S: f64 = 10.0;
 /// Keys of the full-keyboard workload.
 const PIANO_KEYS: usize = 88;
 
-/// The goals (issue 6). Fractions are of one core.
+/// The goals. Fractions are of one core.
 const FULL_KEYBOARD_LOAD_MAX: f64 = 0.15;
 /// The same with sympathetic strings, phantom partials and the action's sounds
-/// on too (issue 17; issue 20 asks for 10 %).
+/// on too.
 const FULL_KEYBOARD_ALL_LOAD_MAX: f64 = 0.10;
 const WORST_BLOCK_MAX: f64 = 0.40;
-/// The 10-key chord's block with everything on (issue 20).
+/// The 10-key chord's block with everything on.
 const CHORD10_ALL_BLOCK_MAX: f64 = 0.25;
-/// The gathered free loop against the FMA probe (issue 20).
+/// The gathered free loop against the FMA probe.
 const KERNEL_FRACTION_MIN: f64 = 0.9;
 const CHORD32_FACTOR_MIN: f64 = 100.0;
 const IDLE_LOAD_MAX: f64 = 0.01;

@@ -330,8 +330,7 @@ fn the_body_does_not_boom_under_the_strikes() {
             let pedal = kind == InstrumentKind::Cimbalom;
             let (l, r) = note_pedalled(&mut s, key, 92.0 / 127.0, 0.35, pedal);
             let mono: Vec<f64> = l.iter().zip(&r).map(|(l, r)| l + r).collect();
-            let f0 = 440.0 * 2f64.powf((f64::from(key) - 69.0) / 12.0);
-            shares.push((key, boom_share_db(&mono, f0)));
+            shares.push((key, boom_share_db(&mono, struck_engine::design::key_frequency_hz(key))));
         }
         let mut sorted: Vec<f64> = shares.iter().map(|s| s.1).collect();
         sorted.sort_by(f64::total_cmp);

@@ -107,8 +107,8 @@ impl AirCavity {
         SOUND_SPEED_M_S / (2.0 * PI) * (self.hole_area_m2() / (self.volume_m3 * self.neck_length_m())).sqrt()
     }
 
-    /// The box's lowest pair of modes: the top's (1, 1) mode `top` (its wood
-    /// and radiation losses in its loss factor) and the air in the holes,
+    /// The box's lowest pair of modes: the top's (1, 1) mode `top` (the wood's
+    /// loss in its loss factor) and the air in the holes,
     /// coupled by the cavity's stiffness (the two-oscillator model of
     /// Christensen & Vistisen, JASA 68, 1980; Fletcher & Rossing, The Physics
     /// of Musical Instruments, 2nd ed., section 9.4).
@@ -161,11 +161,8 @@ impl AirCavity {
                 n: 1,
                 net_volume: 1.0 + a * z / (s * q),
             };
-            // The top's share keeps its wood's loss; its own radiation is
-            // counted again below with the net volume.
-            let top_wood = top.loss_factor - radiation_loss_factor(plate, top);
             BodyMode {
-                loss_factor: u_top * u_top * top_wood
+                loss_factor: u_top * u_top * top.loss_factor
                     + u_air * u_air * AIR_LOSS_FACTOR
                     + radiation_loss_factor(plate, &mode),
                 ..mode
@@ -298,17 +295,8 @@ impl BodyDesign {
             mode.loss_factor += radiation_loss_factor(&self.plate, mode);
         }
         if let Some(air) = &self.air {
-            let f = self.plate.mode_frequency_hz(1, 1);
-            let top = BodyMode {
-                frequency_hz: f,
-                loss_factor: self.plate.loss_factor,
-                modal_mass_kg: self.plate.mass_kg() / 4.0,
-                m: 1,
-                n: 1,
-                net_volume: 1.0,
-            };
-            let top = BodyMode { loss_factor: top.loss_factor + radiation_loss_factor(&self.plate, &top), ..top };
             list.retain(|mode| (mode.m, mode.n) != (1, 1));
+            let top = plate::mode(&self.plate, 1, 1);
             list.extend(air.couple(&self.plate, &top).into_iter().filter(|m| m.frequency_hz <= max_hz));
             list.sort_by(|p, q| p.frequency_hz.total_cmp(&q.frequency_hz));
         }

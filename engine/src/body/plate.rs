@@ -224,23 +224,35 @@ fn beam_factors(boundary: Boundary, m: u32) -> (f64, f64) {
 /// All plate modes up to `max_hz`, sorted by frequency. Modal mass is M/4 (sine
 /// shapes of unit peak); every mode takes the plate's loss factor.
 pub fn modes(plate: &Plate, max_hz: f64) -> Vec<BodyMode> {
-    let modal_mass_kg = plate.mass_kg() / 4.0;
     let mut out = Vec::new();
     let mut m = 1;
     while plate.mode_frequency_hz(m, 1) <= max_hz {
         let mut n = 1;
         loop {
-            let frequency_hz = plate.mode_frequency_hz(m, n);
-            if frequency_hz > max_hz {
+            let mode = mode(plate, m, n);
+            if mode.frequency_hz > max_hz {
                 break;
             }
-            out.push(BodyMode { frequency_hz, loss_factor: plate.loss_factor, modal_mass_kg, m, n, net_volume: 1.0 });
+            out.push(mode);
             n += 1;
         }
         m += 1;
     }
     out.sort_by(|p, q| p.frequency_hz.total_cmp(&q.frequency_hz));
     out
+}
+
+/// The plate's (m, n) mode: its frequency, the plate's loss factor, a
+/// quarter of its mass (a shape of unit peak).
+pub fn mode(plate: &Plate, m: u32, n: u32) -> BodyMode {
+    BodyMode {
+        frequency_hz: plate.mode_frequency_hz(m, n),
+        loss_factor: plate.loss_factor,
+        modal_mass_kg: plate.mass_kg() / 4.0,
+        m,
+        n,
+        net_volume: 1.0,
+    }
 }
 
 /// Mode shape at (x, y), fractions of the sides: sin(m pi x) sin(n pi y) (a

@@ -182,7 +182,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
     }
     let settings =
-        Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(fs_of(sample_rate_hz));
+        Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(f64::from(sample_rate_hz));
 
     // Every song is read and checked, and every WAV's temporary made beside
     // it, before anything is built or rendered: a bad song or an --out that
@@ -259,14 +259,14 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         let peak = write_wav(&mut synth, job, block_size, spec, temporary, progress.as_ref());
         let wall_s = started.elapsed().as_secs_f64();
         let guard = synth.guard();
-        let guard = guard.acted().then(|| guard.describe(fs_of(sample_rate_hz)));
+        let guard = guard.acted().then(|| guard.describe(f64::from(sample_rate_hz)));
         match peak {
             Ok(peak) => Ok(Rendered { peak, wall_s, guard }),
             Err(Stopped::Interrupted) => Err(Failure::interrupted()),
             Err(Stopped::NonFinite(sample)) => Err(Failure::failed(format!(
                 "{}: the synth produced a non-finite sample at {:.3} s; nothing was written",
                 job.shown,
-                sample as f64 / fs_of(sample_rate_hz)
+                sample as f64 / f64::from(sample_rate_hz)
             ))),
             Err(Stopped::Write(e)) => Err(staged_write_failure(&job.out, temporary, &e)),
         }
@@ -309,7 +309,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         if args.quiet {
             continue;
         }
-        let audio_s = job.total as f64 / fs_of(sample_rate_hz);
+        let audio_s = job.total as f64 / f64::from(sample_rate_hz);
         let peak_note = if done.peak > 0.0 {
             let db = 20.0 * f64::from(done.peak).log10();
             let over = if done.peak > 1.0 { " (above full scale: lower controls.output_gain in a preset)" } else { "" };
@@ -334,10 +334,6 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         ));
     }
     Ok(())
-}
-
-fn fs_of(sample_rate_hz: u32) -> f64 {
-    f64::from(sample_rate_hz)
 }
 
 /// Where each song's WAV goes: `out` itself for one song; for several, `out`
@@ -397,7 +393,7 @@ fn read_song(
             keys.end()
         )));
     }
-    let fs_hz = fs_of(sample_rate_hz);
+    let fs_hz = f64::from(sample_rate_hz);
     let total = read.last_sample() + (tail_s * fs_hz).round() as u64;
     if total.saturating_mul(8) > MAX_WAV_DATA_BYTES {
         return Err(Failure::bad_input(format!(

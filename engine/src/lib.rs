@@ -103,6 +103,7 @@ pub mod exciter;
 pub mod input;
 pub(crate) mod key;
 pub mod modal_bank;
+pub mod performance;
 pub mod phantom;
 pub mod preset;
 pub mod rng;

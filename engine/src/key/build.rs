@@ -195,7 +195,7 @@ impl Key {
     /// voicing the key through the body when the instrument is built.
     pub fn probe(&mut self, touch: Touch, force: &mut [f64]) -> Vec<Vec<(Complex64, Complex64)>> {
         self.settle();
-        self.press(0, touch, 0.0, 1.0, 1.0);
+        self.press(0, touch, &PerformanceState::default());
         for (b, chunk) in force.chunks_mut(CONTROL_BLOCK).enumerate() {
             chunk.fill(0.0);
             self.render(chunk, None);

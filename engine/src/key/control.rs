@@ -8,7 +8,8 @@ impl Key {
     /// Once per control block: move the damper, retune for a bend or a press, let
     /// go of hammers that have flown off, and notice silence. Returns true when the
     /// key has just fallen silent (it is then inactive and at rest).
-    pub fn control(&mut self, block_s: f64, sustain: f64, bend: f64, silence: f64) -> bool {
+    pub fn control(&mut self, block_s: f64, performance: &PerformanceState, silence: f64) -> bool {
+        let (sustain, bend) = (performance.sustain, performance.bend);
         // The strings stay gathered over blocks that neither read nor move
         // them (handed back below where one does).
         if self.fade.gain <= 0.0 {
@@ -180,15 +181,16 @@ impl Key {
     }
 
     /// Start sounding from rest without a stroke (its strings set ringing by
-    /// the others): the damper where the pedal has it, the poles set for it.
-    pub(super) fn wake(&mut self, sustain: f64, bend: f64) {
+    /// the others): the damper where the pedal has it, the poles set for
+    /// the bend.
+    pub(super) fn wake(&mut self, performance: &PerformanceState) {
         self.active = true;
         self.cull.due_in = 0;
         self.fade.gain = 1.0;
         self.fade.step = 0.0;
         self.cull.loudest_n = 0.0;
-        self.damper.settle(self.down() || self.sostenuto, sustain);
-        let pitch = self.pitch(bend);
+        self.damper.settle(self.down() || self.sostenuto, performance.sustain);
+        let pitch = self.pitch(performance.bend);
         self.set_poles(pitch);
     }
 

@@ -32,6 +32,7 @@ use crate::exciter::hammer::{HammerSpec, Hysteresis};
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{FreeGather, LANES, add_lane_sums};
+use crate::performance::{OwnNote, PerformanceState};
 use crate::phantom::{Phantom, PhantomTable};
 use crate::string::{StringError, StringModes};
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
@@ -386,8 +387,8 @@ impl Key {
 
     /// Whether its strings would ring if moved, silent as it is: its damper
     /// off with the sustain pedal at `sustain` (or none at all).
-    pub fn rings_free(&self, sustain: f64) -> bool {
-        self.damper.target(self.down() || self.sostenuto, sustain) < 1.0
+    pub fn rings_free(&self, performance: &PerformanceState) -> bool {
+        self.damper.target(self.down() || self.sostenuto, performance.sustain) < 1.0
     }
 
     /// Whether it is fading out (stolen, reset, or its instrument replaced).
@@ -462,6 +463,15 @@ impl Key {
         self.trim.pan.is_placed()
     }
 
+    /// Give its strings a MIDI key's own note shaping: tuning, volume,
+    /// place and hammer.
+    pub fn shape(&mut self, own: OwnNote) {
+        self.set_tune(own.tune);
+        self.set_volume(own.volume);
+        self.set_pan(own.pan);
+        self.set_hammer(own.hammer.0, own.hammer.1);
+    }
+
     /// Its own hammer (or mallets) over the voicing, for its next strikes:
     /// felt stiffness and strike position as factors, 1 as voiced (held to
     /// 1/16 to 16 times). Allocates: no (a strike at a new point rebuilds the
@@ -533,7 +543,7 @@ impl Key {
     }
 
     /// Take over a ringing key of the same instrument whose tables were rebuilt.
-    pub fn take_over(&mut self, old: &mut Key, bend: f64) {
+    pub fn take_over(&mut self, old: &mut Key, performance: &PerformanceState) {
         self.settle();
         old.settle();
         for (new, old) in self.strings.iter_mut().zip(old.strings.iter_mut()) {
@@ -561,7 +571,7 @@ impl Key {
         self.fade.gain = old.fade.gain;
         self.fade.step = old.fade.step;
         self.cull.level = old.cull.level;
-        let pitch = self.pitch(bend);
+        let pitch = self.pitch(performance.bend);
         self.set_poles(pitch);
         old.silence();
     }

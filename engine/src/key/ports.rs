@@ -52,18 +52,17 @@ impl Key {
 
     /// The bridge's motion moves partial `partial` of each of `strings` by
     /// `delta` (N): a silent key whose damper would lie on its strings with
-    /// the pedal at `sustain` takes nothing, nor one that would be silent at
+    /// the sustain pedal where `performance` has it takes nothing, nor one that would be silent at
     /// once (a drive under [`WAKE_OVER_SILENCE`] times `silence` of full
     /// scale); one that takes it starts to sound, its damper where the pedal has it and
-    /// its pitch bent by `bend`, and stays sounding while it is driven that hard.
+    /// its pitch bent as `performance` bends it, and stays sounding while it is driven that hard.
     /// Returns whether it took it. Allocates: no.
     pub fn drive_partial(
         &mut self,
         strings: u8,
         partial: usize,
         delta: Complex64,
-        sustain: f64,
-        bend: f64,
+        performance: &PerformanceState,
         silence: f64,
     ) -> bool {
         // A partial running in the gathering is moved there; one it does not
@@ -77,10 +76,10 @@ impl Key {
         let floor_n = CULL_FLOOR * silence / self.gain_per_n.max(1e-300);
         let felt = self.would_wake(delta, silence);
         if !self.active {
-            if self.damper.target(false, sustain) >= 1.0 || !felt {
+            if self.damper.target(false, performance.sustain) >= 1.0 || !felt {
                 return false;
             }
-            self.wake(sustain, bend);
+            self.wake(performance);
         }
         // (The phantom products follow at their next refresh: a trade moves
         // a partial by a little.) Only a drive that would wake it keeps it

@@ -6,10 +6,14 @@ use super::*;
 
 impl Key {
     /// Note `note` goes down with `touch` (a speed for hammers, mallets and
-    /// tangents, a lift for a plectrum), with the mallet's hardness `hardness`
-    /// times as built. A touch in the other unit than the note's exciter is
+    /// tangents, a lift for a plectrum), the player's hands and feet as
+    /// `performance` has them (una corda, the bend, hand-held mallets'
+    /// hardness). A touch in the other unit than the note's exciter is
     /// ignored. Allocates: no.
-    pub fn press(&mut self, note: usize, touch: Touch, una_corda: f64, hardness: f64, bend: f64) {
+    pub fn press(&mut self, note: usize, touch: Touch, performance: &PerformanceState) {
+        let (una_corda, bend) = (performance.una_corda, performance.bend);
+        // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
+        let hardness = if self.strike.hand_held { performance.mallet_hardness } else { 1.0 };
         self.settle();
         let Some(played) = self.notes.get(note) else { return };
         let fits = match played.exciter {
@@ -118,8 +122,10 @@ impl Key {
         }
     }
 
-    /// Note `note` comes up at release `velocity` (0..=1), the sustain pedal at `sustain`.
-    pub fn release(&mut self, note: usize, velocity: f64, sustain: f64) {
+    /// Note `note` comes up at release `velocity` (0..=1), the sustain pedal
+    /// where `performance` has it.
+    pub fn release(&mut self, note: usize, velocity: f64, performance: &PerformanceState) {
+        let sustain = performance.sustain;
         self.settle();
         let bit = 1u32 << note;
         if self.held & bit == 0 {
@@ -155,10 +161,11 @@ impl Key {
         }
     }
 
-    /// Every note of the course comes up, the sustain pedal at `sustain`.
-    pub fn release_all(&mut self, sustain: f64) {
+    /// Every note of the course comes up, the sustain pedal where
+    /// `performance` has it.
+    pub fn release_all(&mut self, performance: &PerformanceState) {
         for note in 0..self.notes.len() {
-            self.release(note, 0.5, sustain);
+            self.release(note, 0.5, performance);
         }
     }
 
@@ -191,8 +198,9 @@ impl Key {
     /// from the bend its weight held them in ([`action`]) and ring. Nothing
     /// for a key without a damper or one already lifted (held, or kept up by
     /// the sostenuto pedal); a silent key starts to sound, its damper where
-    /// `sustain` has it and its pitch bent by `bend`. Allocates: no.
-    pub fn lift_damper(&mut self, sustain: f64, bend: f64) {
+    /// `performance`'s pedal has it and its pitch bent by its wheel.
+    /// Allocates: no.
+    pub fn lift_damper(&mut self, performance: &PerformanceState) {
         self.settle();
         if self.action.noise.pedal <= 0.0
             || !self.action.on_body
@@ -203,7 +211,7 @@ impl Key {
             return;
         }
         if !self.active {
-            self.wake(sustain, bend);
+            self.wake(performance);
         }
         self.let_strings_go();
     }

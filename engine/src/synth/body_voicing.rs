@@ -13,6 +13,7 @@ use crate::body::load::trade;
 use crate::body::soundboard::{HeardModes, Soundboard};
 use crate::design::{Touch, TouchRange};
 use crate::key::{Key, SYMPATHY_BLOCKS, TRADE_BLOCKS, regulated, wakes};
+use crate::performance::PerformanceState;
 use crate::synth::SILENCE;
 use crate::synth::sympathy::Sympathy;
 
@@ -174,7 +175,7 @@ pub(super) fn partners<'a>(
         .into_iter()
         .filter_map(|pair| {
             let other = keys.get(pair.other as usize)?.as_ref()?;
-            if !other.rings_free(0.0) {
+            if !other.rings_free(&PerformanceState::default()) {
                 return None;
             }
             let in_step = other.unison().get(pair.other_partial).map_or(Complex64::new(1.0, 0.0), |u| u.1);

@@ -37,6 +37,7 @@ use crate::body::soundboard::{BODY_TOP_HZ, HeardModes, MicPlacement, Soundboard}
 use crate::body::{Bridge, Output};
 use crate::design::{self, InstrumentKind, KeyDesign, LiveVoicing, Touch, TouchRange, Voicing, key_frequency_hz};
 use crate::key::{ActionNoise, Key, SYMPATHY_BLOCKS};
+use crate::performance::{LIFT_SPREAD_BLOCKS, OwnNote, PerformanceState};
 use crate::string::StringError;
 use crate::tuning::TuningSettings;
 use body_voicing::{Voiced, Voicer, heard_pa_per_n};
@@ -45,6 +46,7 @@ use sympathy::Sympathy;
 
 pub use crate::CONTROL_BLOCK;
 pub use crate::key::MAX_BEBUNG_CENTS;
+pub use crate::performance::SOFTEST_MALLET;
 
 /// A key whose output can no longer exceed this (-120 dBFS) stops computing.
 pub const SILENCE: f64 = 1e-6;
@@ -60,19 +62,8 @@ pub const MIN_SAMPLE_RATE_HZ: f64 = 1_000.0;
 pub const MAX_SAMPLE_RATE_HZ: f64 = 768_000.0;
 /// Chunk length while the live view records a strike.
 const SCOPE_CHUNK: usize = 8;
-/// A hand-held mallet's contact stiffness at full mod wheel, times as voiced: a
-/// thick cloth-covered head against the bare wood of the wheel at rest. The range
-/// is wide because a light mallet on a linear spring of 1e6 N/m per string is
-/// stiff against the string's impedance (damping ratio sqrt(K M) / 4 Z0 near 25):
-/// the head's spring only shapes the stroke once it falls below about 1e4 N/m.
-pub const SOFTEST_MALLET: f64 = 1.0e-3;
 /// The most threads an instrument's keys are voiced on when it is built.
 const MAX_VOICING_THREADS: usize = 8;
-
-/// The dampers leave their strings over this many control blocks as the
-/// pedal lifts them (10.7 ms at 48 kHz: the tray is not regulated to the
-/// sample), each key at its own block.
-const LIFT_SPREAD_BLOCKS: usize = 8;
 
 /// The release velocity of a key released by a note-on at velocity 0 (MIDI's
 /// default, 64).
@@ -480,8 +471,6 @@ fn run_body(soundboard: &mut Soundboard, bridge: &Bridge, heard: &mut [[f64; CON
 /// A control block's work before its keys are told ([`Synth::control`]).
 #[derive(Clone, Copy)]
 struct BeforeKeys {
-    sustain: f64,
-    bend: f64,
     noise: ActionNoise,
     /// The sympathetic strings' level.
     sympathy: f64,
@@ -492,21 +481,20 @@ struct BeforeKeys {
 impl BeforeKeys {
     /// The dampers the pedal is lifting (`lifting`, moved on), and the
     /// strings' trading through the body.
-    fn run(self, keys: &mut [Option<Key>], sympathy: &mut Sympathy, lifting: &mut Option<usize>) {
-        let Self { sustain, bend, noise, .. } = self;
-        if let Some(phase) = *lifting {
+    fn run(self, keys: &mut [Option<Key>], sympathy: &mut Sympathy, performance: &mut PerformanceState) {
+        if let Some(phase) = performance.lifting {
             for (k, key) in keys.iter_mut().enumerate() {
                 if let Some(key) = key.as_mut().filter(|_| k * 5 % LIFT_SPREAD_BLOCKS == phase) {
-                    key.set_noise(noise);
-                    key.lift_damper(sustain, bend);
+                    key.set_noise(self.noise);
+                    key.lift_damper(performance);
                 }
             }
-            *lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
+            performance.lifting = (phase + 1 < LIFT_SPREAD_BLOCKS).then_some(phase + 1);
         }
         // Each key's pairs trade once every SYMPATHY_BLOCKS blocks, an
         // eighth of the keys each block.
         let phase = (self.block % SYMPATHY_BLOCKS as u64) as usize;
-        sympathy.trade(keys, self.sympathy, sustain, bend, SILENCE, phase);
+        sympathy.trade(keys, self.sympathy, performance, SILENCE, phase);
     }
 }
 
@@ -545,8 +533,6 @@ impl OutputSample for f64 {
 #[derive(Clone, Copy)]
 struct KeyTick {
     block_s: f64,
-    sustain: f64,
-    bend: f64,
     bebung: f64,
     phantom: f64,
     noise: ActionNoise,
@@ -555,12 +541,12 @@ struct KeyTick {
 impl KeyTick {
     /// Tell each of `keys` that is sounding, noting in `fallen` the MIDI keys
     /// of those that fell silent.
-    fn control(&self, keys: &mut [Option<Key>], fallen: &mut Fallen) {
+    fn control(&self, keys: &mut [Option<Key>], performance: &PerformanceState, fallen: &mut Fallen) {
         for key in keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
             key.set_bebung(self.bebung);
             key.set_phantom(self.phantom);
             key.set_noise(self.noise);
-            if key.control(self.block_s, self.sustain, self.bend, SILENCE) {
+            if key.control(self.block_s, performance, SILENCE) {
                 for k in key.take_sounded() {
                     fallen.push(k);
                 }
@@ -633,26 +619,8 @@ pub struct Synth {
     /// Instruments replaced and waiting to be handed back for dropping elsewhere.
     retired: [Option<Box<Instrument>>; 8],
     controls: Controls,
-    sustain: f64,
-    /// The sustain pedal has lifted the dampers (until it comes back up), and
-    /// how far through its spread of control blocks they are leaving their
-    /// strings ([`LIFT_SPREAD_BLOCKS`]).
-    dampers_lifted: bool,
-    lifting: Option<usize>,
-    sostenuto: bool,
-    /// How far una corda shifts the action, 0..=1.
-    una_corda: f64,
-    /// Hand-held mallets' hardness from the mod wheel: a factor on the contact stiffness.
-    hardness: f64,
-    /// Each MIDI key's own tuning, volume, place and hammer (its note's
-    /// expressions), and which MIDI key's the strings of each course have
-    /// now (by the course's home key): keys that share strings (the
-    /// dulcimer's upper courses, a fretted clavichord) each keep their own.
-    own: [OwnNote; 128],
-    owner: [u8; 128],
-    /// Pitch-wheel position -1..=1 and the frequency ratio it gives.
-    wheel: f64,
-    bend: f64,
+    /// What the player is doing with it: pedals, wheels, per-note shaping.
+    performance: PerformanceState,
     clock: u64,
     outlet: Outlet,
     ended: Vec<KeyEnded>,
@@ -671,32 +639,6 @@ pub struct Synth {
 /// a damping moved by an LFO would have that done in every block.
 const LIVE_DAMPING_EVERY_S: f64 = 0.01;
 
-/// A MIDI key's own note shaping ([`Event::KeyBend`], [`Event::KeyVolume`],
-/// [`Event::KeyPan`], [`Event::KeyHammer`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct OwnNote {
-    tune: f64,
-    volume: f64,
-    pan: f64,
-    hammer: (f64, f64),
-}
-
-impl Default for OwnNote {
-    fn default() -> Self {
-        Self { tune: 1.0, volume: 1.0, pan: 0.0, hammer: (1.0, 1.0) }
-    }
-}
-
-impl OwnNote {
-    /// Give `key`'s strings this note's shaping.
-    fn shape(self, key: &mut Key) {
-        key.set_tune(self.tune);
-        key.set_volume(self.volume);
-        key.set_pan(self.pan);
-        key.set_hammer(self.hammer.0, self.hammer.1);
-    }
-}
-
 impl Synth {
     /// A synth playing `instrument`, and the reader of its live view. Allocates.
     pub fn new(instrument: Box<Instrument>) -> (Self, Scope) {
@@ -708,16 +650,7 @@ impl Synth {
             outgoing: None,
             retired: Default::default(),
             controls: Controls::default(),
-            sustain: 0.0,
-            dampers_lifted: false,
-            lifting: None,
-            sostenuto: false,
-            una_corda: 0.0,
-            hardness: 1.0,
-            own: [OwnNote::default(); 128],
-            owner: std::array::from_fn(|k| k as u8),
-            wheel: 0.0,
-            bend: 1.0,
+            performance: PerformanceState::default(),
             clock: 0,
             outlet: Outlet::new(fs),
             ended: Vec::with_capacity(1024),
@@ -741,7 +674,7 @@ impl Synth {
     /// Set the per-block controls (real-time safe).
     pub fn set_controls(&mut self, controls: Controls) {
         self.controls = controls;
-        self.bend = self.bend_ratio();
+        self.performance.rebend(self.controls.bend_range_semitones);
     }
 
     /// The voicing the player asks for: what of it the instrument playing
@@ -774,10 +707,6 @@ impl Synth {
                 key.set_live_voicing(live);
             }
         }
-    }
-
-    fn bend_ratio(&self) -> f64 {
-        2f64.powf(self.wheel * self.controls.bend_range_semitones / 12.0)
     }
 
     /// What the output's guard has done so far ([`guard`]): read it off the
@@ -841,7 +770,6 @@ impl Synth {
     /// into the new tables; of another kind, the old one fades out. Real-time safe:
     /// the replaced instrument waits in [`Self::take_retired`].
     pub fn install(&mut self, mut instrument: Box<Instrument>) {
-        let bend = self.bend;
         // Ringing keys carry over when every MIDI key still plays the same course
         // (a fretted clavichord made unfretted does not).
         if instrument.settings.kind == self.current.settings.kind && instrument.route == self.current.route {
@@ -849,7 +777,7 @@ impl Synth {
                 if let (Some(new), Some(old)) = (new, old)
                     && old.is_sounding()
                 {
-                    new.take_over(old, bend);
+                    new.take_over(old, &self.performance);
                 }
             }
             instrument.soundboard.take_over(&self.current.soundboard);
@@ -944,10 +872,10 @@ impl Synth {
             Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key, 0.0),
             Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
             Event::NoteOff { key, velocity } => self.note_off(key, velocity),
-            Event::Sustain(v) if v.is_finite() => self.pedal_to(v as f64),
+            Event::Sustain(v) if v.is_finite() => self.performance.pedal_to(v as f64),
             Event::Sostenuto(v) => {
                 let down = v >= 0.5;
-                if down && !self.sostenuto {
+                if down && !self.performance.sostenuto {
                     for k in self.current.keys.iter_mut().flatten() {
                         k.catch_sostenuto();
                     }
@@ -956,34 +884,34 @@ impl Synth {
                         k.drop_sostenuto();
                     }
                 }
-                self.sostenuto = down;
+                self.performance.sostenuto = down;
             }
-            Event::UnaCorda(v) if v.is_finite() => self.una_corda = (v as f64).clamp(0.0, 1.0),
-            Event::ModWheel(v) if v.is_finite() => self.hardness = SOFTEST_MALLET.powf((v as f64).clamp(0.0, 1.0)),
+            Event::UnaCorda(v) if v.is_finite() => self.performance.una_corda = (v as f64).clamp(0.0, 1.0),
+            Event::ModWheel(v) if v.is_finite() => self.performance.mod_wheel(v as f64),
             Event::Pressure { key, pressure } if pressure.is_finite() => {
                 if let Some((k, _)) = self.current.route(key) {
                     k.set_pressure(pressure as f64);
                 }
             }
             Event::KeyVolume { key, gain } if gain.is_finite() => {
-                self.own[key as usize & 127].volume = f64::from(gain);
+                self.performance.own[key as usize & 127].volume = f64::from(gain);
                 self.apply_own(key);
             }
             Event::KeyPan { key, pan } if pan.is_finite() => {
-                self.own[key as usize & 127].pan = f64::from(pan);
+                self.performance.own[key as usize & 127].pan = f64::from(pan);
                 self.apply_own(key);
             }
             Event::KeyHammer { key, hardness, position } if hardness.is_finite() && position.is_finite() => {
-                self.own[key as usize & 127].hammer = (f64::from(hardness), f64::from(position));
+                self.performance.own[key as usize & 127].hammer = (f64::from(hardness), f64::from(position));
                 self.apply_own(key);
             }
             Event::KeyBend { key, semitones } if semitones.is_finite() => {
-                self.own[key as usize & 127].tune = 2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0);
+                self.performance.own[key as usize & 127].tune =
+                    2f64.powf(f64::from(semitones.clamp(-96.0, 96.0)) / 12.0);
                 self.apply_own(key);
             }
             Event::PitchBend(v) if !v.is_nan() => {
-                self.wheel = (v as f64).clamp(-1.0, 1.0);
-                self.bend = self.bend_ratio();
+                self.performance.pitch_wheel(v as f64, self.controls.bend_range_semitones);
             }
             Event::ModWheel(_)
             | Event::Pressure { .. }
@@ -995,46 +923,24 @@ impl Synth {
             | Event::Sustain(_)
             | Event::PitchBend(_) => {}
             Event::AllNotesOff => {
-                let sustain = self.sustain;
+                let performance = &self.performance;
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.down()) {
-                    k.release_all(sustain);
+                    k.release_all(performance);
                 }
             }
             Event::Reset => {
                 let fs = self.current.settings.sample_rate_hz;
+                let held_up = PerformanceState::held_up();
                 for k in self.current.keys.iter_mut().flatten().filter(|k| k.is_sounding()) {
                     // Silenced, not let go: no damper lands.
-                    k.release_all(1.0);
+                    k.release_all(&held_up);
                     k.fade_out(STEAL_FADE_S, fs);
                 }
                 self.current.soundboard.fade_out(STEAL_FADE_S);
-                self.sustain = 0.0;
-                self.dampers_lifted = false;
-                self.lifting = None;
-                self.sostenuto = false;
-                self.una_corda = 0.0;
-                self.hardness = 1.0;
-                self.wheel = 0.0;
-                self.bend = 1.0;
-                self.own = [OwnNote::default(); 128];
-                self.owner = std::array::from_fn(|k| k as u8);
+                self.performance = PerformanceState::default();
                 // (A key fading out glides back, a silent one is there at once.)
-                self.current.keys.iter_mut().flatten().for_each(|k| OwnNote::default().shape(k));
+                self.current.keys.iter_mut().flatten().for_each(|k| k.shape(OwnNote::default()));
             }
-        }
-    }
-
-    /// The sustain pedal moves to `value` (0..=1). Pressed past half way it
-    /// lifts every damper off its strings at once (not again until it has come
-    /// back under a quarter: a pedal held near half way does not chatter).
-    fn pedal_to(&mut self, value: f64) {
-        self.sustain = value.clamp(0.0, 1.0);
-        if self.sustain >= 0.5 && !self.dampers_lifted {
-            self.dampers_lifted = true;
-            self.lifting = Some(0);
-        } else if self.sustain < 0.25 {
-            self.dampers_lifted = false;
-            self.lifting = None;
         }
     }
 
@@ -1048,19 +954,16 @@ impl Synth {
         // volume, place and hammer.
         if let Some((key, _)) = self.current.route(midi_key) {
             let home = key.midi_key() as usize & 127;
-            if self.owner[home] != midi_key {
-                self.owner[home] = midi_key;
+            if self.performance.owner[home] != midi_key {
+                self.performance.owner[home] = midi_key;
                 self.apply_own(midi_key);
             }
         }
-        // The mod wheel covers hand-held mallets; a keyboard's hammers are voiced by the parameters.
-        let hardness = if self.current.settings.kind.hand_mallets() { self.hardness } else { 1.0 };
-        let (una_corda, bend, bebung, noise) =
-            (self.una_corda, self.bend, self.controls.bebung_cents, self.controls.noise());
+        let (bebung, noise) = (self.controls.bebung_cents, self.controls.noise());
         let Some((key, note)) = self.current.route(midi_key) else { return };
         key.set_bebung(bebung);
         key.set_noise(noise);
-        key.press(note, touch, una_corda, hardness, bend);
+        key.press(note, touch, &self.performance);
         let home = key.midi_key();
         self.scope.struck(home);
     }
@@ -1070,22 +973,22 @@ impl Synth {
     fn note_off(&mut self, midi_key: u8, velocity: f32) {
         let velocity =
             if velocity > 0.0 && velocity.is_finite() { (velocity as f64).min(1.0) } else { DEFAULT_RELEASE };
-        let (sustain, noise) = (self.sustain, self.controls.noise());
+        let noise = self.controls.noise();
         if let Some((key, note)) = self.current.route(midi_key) {
             key.set_noise(noise);
-            key.release(note, velocity, sustain);
+            key.release(note, velocity, &self.performance);
         }
     }
 
     /// Hand `midi_key`'s own tuning, volume, place and hammer to its strings,
     /// if they are its now.
     fn apply_own(&mut self, midi_key: u8) {
-        let own = self.own[midi_key as usize & 127];
+        let own = self.performance.own[midi_key as usize & 127];
         let Some((key, _)) = self.current.route(midi_key) else { return };
-        if self.owner[key.midi_key() as usize & 127] != midi_key {
+        if self.performance.owner[key.midi_key() as usize & 127] != midi_key {
             return;
         }
-        own.shape(key);
+        key.shape(own);
     }
 
     /// Below the polyphony cap, or steal: the quietest released key first, else the quietest.
@@ -1112,7 +1015,7 @@ impl Synth {
         let tick = self.key_tick();
         for instrument in std::iter::once(&mut self.current).chain(self.outgoing.as_mut()) {
             let mut ended = Fallen::default();
-            tick.control(&mut instrument.keys, &mut ended);
+            tick.control(&mut instrument.keys, &self.performance, &mut ended);
             push_ended(&mut self.ended, time, &ended);
         }
         // The outgoing instrument leaves once its keys are silent and its body has rung out.
@@ -1130,8 +1033,6 @@ impl Synth {
     fn key_tick(&self) -> KeyTick {
         KeyTick {
             block_s: CONTROL_BLOCK as f64 / self.current.settings.sample_rate_hz,
-            sustain: self.sustain,
-            bend: self.bend,
             bebung: self.controls.bebung_cents,
             phantom: self.controls.phantom.clamp(0.0, 4.0),
             noise: self.controls.noise(),
@@ -1143,14 +1044,12 @@ impl Synth {
     fn control_before_keys(&mut self) {
         let before = self.before_keys();
         let current = &mut *self.current;
-        before.run(&mut current.keys, &mut current.sympathy, &mut self.lifting);
+        before.run(&mut current.keys, &mut current.sympathy, &mut self.performance);
     }
 
     /// What a control block does before its keys are told, as it stands.
     fn before_keys(&self) -> BeforeKeys {
         BeforeKeys {
-            sustain: self.sustain,
-            bend: self.bend,
             noise: self.controls.noise(),
             sympathy: self.controls.sympathy,
             block: self.clock / CONTROL_BLOCK as u64,

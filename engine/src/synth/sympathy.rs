@@ -48,6 +48,7 @@ use num_complex::Complex64;
 
 use crate::body::load::BoardLoad;
 use crate::key::{Key, Port};
+use crate::performance::PerformanceState;
 
 /// Partials further apart than this are not paired, Hz (the forced answer of
 /// a partial 30 Hz off is under -40 dB of the driving one's share).
@@ -369,7 +370,7 @@ impl Sympathy {
     }
 
     /// One block's share of the trading among `keys` at `level` (0..=1 of
-    /// the physics), the sustain pedal at `sustain`, the pitch bent by `bend`;
+    /// the physics), the pedals and the bend where `performance` has them;
     /// a silent key is woken only by what it would not fall silent from at
     /// once (`silence`, full scale). The keys whose number is `phase` modulo
     /// [`crate::key::SYMPATHY_BLOCKS`] and that may ring take what their
@@ -382,13 +383,20 @@ impl Sympathy {
     /// partial was moved by each of its partners' keys at their own blocks:
     /// up to eight times an interval, and the pedalled nocturne rendered at
     /// 8.6-11x real time against 14-16x.) Allocates: no.
-    pub fn trade(&mut self, keys: &mut [Option<Key>], level: f64, sustain: f64, bend: f64, silence: f64, phase: usize) {
+    pub fn trade(
+        &mut self,
+        keys: &mut [Option<Key>],
+        level: f64,
+        performance: &PerformanceState,
+        silence: f64,
+        phase: usize,
+    ) {
         self.block += 1;
         if level <= 0.0 || self.count == 0 {
             self.drop_held();
             return;
         }
-        self.hand_on_held(keys, sustain, bend, silence);
+        self.hand_on_held(keys, performance, silence);
         let level = level.min(1.0);
         // The keys due this block that may ring, and whether any key sounds.
         let mut sounding = [false; 128];
@@ -397,7 +405,7 @@ impl Sympathy {
         }
         let mut taking = [false; 128];
         for k in (phase..128.min(keys.len())).step_by(crate::key::SYMPATHY_BLOCKS) {
-            taking[k] = sounding[k] || keys[k].as_ref().is_some_and(|key| key.rings_free(sustain));
+            taking[k] = sounding[k] || keys[k].as_ref().is_some_and(|key| key.rings_free(performance));
         }
         if !sounding.contains(&true) || !taking.contains(&true) {
             return;
@@ -451,7 +459,7 @@ impl Sympathy {
                 self.takes[from as usize..to as usize].fill(Complex64::new(0.0, 0.0));
                 continue;
             };
-            let rings = key.rings_free(sustain);
+            let rings = key.rings_free(performance);
             for i in from as usize..to as usize {
                 let take = std::mem::take(&mut self.takes[i]);
                 if take.re == 0.0 && take.im == 0.0 {
@@ -459,7 +467,7 @@ impl Sympathy {
                 }
                 let drive = self.carried(i) + take * level;
                 let slot = self.slots[i];
-                if key.drive_partial(slot.strings, slot.partial as usize, drive, sustain, bend, silence) {
+                if key.drive_partial(slot.strings, slot.partial as usize, drive, performance, silence) {
                     self.held[i] = Complex64::new(0.0, 0.0);
                 } else if rings {
                     self.hold(i, drive);
@@ -493,7 +501,7 @@ impl Sympathy {
     /// woken through another partial); those whose key's damper came down,
     /// or that have died away under a thousandth of what wakes a key, are
     /// dropped.
-    fn hand_on_held(&mut self, keys: &mut [Option<Key>], sustain: f64, bend: f64, silence: f64) {
+    fn hand_on_held(&mut self, keys: &mut [Option<Key>], performance: &PerformanceState, silence: f64) {
         let mut j = 0;
         while j < self.holding.len() {
             let i = self.holding[j] as usize;
@@ -501,10 +509,10 @@ impl Sympathy {
             let slot = self.slots[i];
             let keep = match keys.get_mut(slot.key as usize) {
                 Some(Some(key)) if key.is_sounding() => {
-                    key.drive_partial(slot.strings, slot.partial as usize, z, sustain, bend, silence);
+                    key.drive_partial(slot.strings, slot.partial as usize, z, performance, silence);
                     false
                 }
-                Some(Some(key)) => key.rings_free(sustain) && key.would_wake(z * 1e3, silence),
+                Some(Some(key)) => key.rings_free(performance) && key.would_wake(z * 1e3, silence),
                 _ => false,
             };
             if keep && !(self.held[i].re == 0.0 && self.held[i].im == 0.0) {
@@ -676,8 +684,9 @@ mod tests {
         let best = (0..20)
             .map(|_| {
                 let t = std::time::Instant::now();
+                let pedalled = crate::performance::PerformanceState::held_up();
                 for i in 0..crate::key::SYMPATHY_BLOCKS {
-                    current.sympathy.trade(&mut current.keys, 1.0, 1.0, 1.0, 1e-6, i);
+                    current.sympathy.trade(&mut current.keys, 1.0, &pedalled, 1e-6, i);
                 }
                 t.elapsed().as_secs_f64() / crate::key::SYMPATHY_BLOCKS as f64
             })

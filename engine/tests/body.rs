@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 
 use struck_engine::body::Output;
 use struck_engine::design::InstrumentKind;
-use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings, midi_velocity};
 
 const FS: f64 = 48_000.0;
 
@@ -18,12 +18,12 @@ fn synth(kind: InstrumentKind, output: Output) -> Synth {
 }
 
 /// One note held from 0 for `seconds` (velocity 0..=1), left and right.
-fn note(synth: &mut Synth, key: u8, velocity: f32, seconds: f64) -> (Vec<f64>, Vec<f64>) {
+fn note(synth: &mut Synth, key: u8, velocity: f64, seconds: f64) -> (Vec<f64>, Vec<f64>) {
     note_pedalled(synth, key, velocity, seconds, false)
 }
 
 /// [`note`], the sustain pedal down with it if `pedal`.
-fn note_pedalled(synth: &mut Synth, key: u8, velocity: f32, seconds: f64, pedal: bool) -> (Vec<f64>, Vec<f64>) {
+fn note_pedalled(synth: &mut Synth, key: u8, velocity: f64, seconds: f64, pedal: bool) -> (Vec<f64>, Vec<f64>) {
     let total = (seconds * FS) as usize;
     let (mut left, mut right) = (vec![0.0f32; total], vec![0.0f32; total]);
     let mut start = 0;
@@ -155,7 +155,7 @@ fn neighbouring_keys_ring_alike_at_every_touch() {
     for velocity in [40u8, 64, 80, 100, 120] {
         let rings: Vec<(u8, f64)> = (21..=108)
             .map(|key| {
-                let (l, r) = note(&mut s, key, f32::from(velocity) / 127.0, 0.3);
+                let (l, r) = note(&mut s, key, midi_velocity(velocity), 0.3);
                 (key, ring_db(&l, &r))
             })
             .collect();
@@ -243,7 +243,7 @@ fn crescendo(s: &mut Synth, key: u8) -> Vec<(u8, f64)> {
         .step_by(8)
         .chain([127])
         .map(|v| {
-            let (l, r) = note(s, key, v as f32 / 127.0, 0.3);
+            let (l, r) = note(s, key, midi_velocity(v), 0.3);
             (v, ring_db(&l, &r))
         })
         .collect()

@@ -134,10 +134,7 @@ fn treble_answer(stretch: f64, velocity: f64) -> TrebleAnswer {
 
 /// [`treble_answer`], heard through `output`.
 fn treble_answer_at(stretch: f64, velocity: f64, output: Output) -> TrebleAnswer {
-    let events = [
-        (0.0, Event::NoteOn { key: C4, velocity: velocity as f32 }),
-        (0.15, Event::NoteOff { key: C4, velocity: 0.5 }),
-    ];
+    let events = [(0.0, Event::NoteOn { key: C4, velocity }), (0.15, Event::NoteOff { key: C4, velocity: 0.5 })];
     let mut s = tuned_synth(InstrumentKind::Piano, Controls { output, ..Controls::default() }, stretch);
     let ringing = play(&mut s, &events, 2.5);
     let mut s = tuned_synth(InstrumentKind::Piano, Controls { output, sympathy: 0.0, ..Controls::default() }, stretch);
@@ -321,7 +318,7 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
     let string = design.strings[design.struck.start].build().unwrap();
     let partial = |n: usize| string.partial_hz(n);
     let mut ratios = Vec::new();
-    for velocity in [64.0f32 / 127.0, 1.0] {
+    for velocity in [64.0 / 127.0, 1.0] {
         let render = |phantom: f64| {
             // Unstretched, so that C2 sounds its design's own partials.
             let mut s = tuned_synth(InstrumentKind::Piano, Controls { phantom, ..Controls::default() }, 0.0);
@@ -389,7 +386,7 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     let note_db = peak_db(&note);
     // The key bed: what the key adds, the same note with its bed silenced taken away.
     let mut bed = Vec::new();
-    for velocity in [40.0f32 / 127.0, 1.0] {
+    for velocity in [40.0 / 127.0, 1.0] {
         let events = [(0.0, Event::NoteOn { key: C4, velocity })];
         let thump = added_by(InstrumentKind::Piano, Controls { key_noise: 0.0, ..Controls::default() }, &events, 0.3);
         bed.push(peak_db(&thump) - note_db);
@@ -398,7 +395,7 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     assert!(bed[1] > bed[0] + 6.0 && bed[1] < -6.0 && bed[0] > -60.0, "{bed:?}");
     // The damper landing: a harder release lands harder.
     let mut landing = Vec::new();
-    for release in [0.1f32, 1.0] {
+    for release in [0.1, 1.0] {
         let events = [
             (0.0, Event::NoteOn { key: C4, velocity: 80.0 / 127.0 }),
             (0.5, Event::NoteOff { key: C4, velocity: release }),

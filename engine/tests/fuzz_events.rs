@@ -41,8 +41,8 @@ fn key() -> impl Strategy<Value = u8> {
 
 fn event() -> impl Strategy<Value = Event> {
     prop_oneof![
-        6 => (key(), value()).prop_map(|(key, velocity)| Event::NoteOn { key, velocity }),
-        4 => (key(), value()).prop_map(|(key, velocity)| Event::NoteOff { key, velocity }),
+        6 => (key(), value()).prop_map(|(key, velocity)| Event::NoteOn { key, velocity: f64::from(velocity) }),
+        4 => (key(), value()).prop_map(|(key, velocity)| Event::NoteOff { key, velocity: f64::from(velocity) }),
         1 => value().prop_map(Event::Sustain),
         1 => value().prop_map(Event::Sostenuto),
         1 => value().prop_map(Event::UnaCorda),
@@ -122,10 +122,10 @@ fn plays_cleanly(events: &[TimedEvent]) {
 /// NaN speed, and every sample after it was NaN.
 #[test]
 fn a_note_on_at_velocity_nan_is_ignored() {
-    plays_cleanly(&[TimedEvent::new(0, Event::NoteOn { key: 28, velocity: f32::NAN })]);
+    plays_cleanly(&[TimedEvent::new(0, Event::NoteOn { key: 28, velocity: f64::NAN })]);
     plays_cleanly(&[
-        TimedEvent::new(0, Event::NoteOn { key: 60, velocity: f32::INFINITY }),
-        TimedEvent::new(3, Event::NoteOn { key: 64, velocity: f32::NEG_INFINITY }),
+        TimedEvent::new(0, Event::NoteOn { key: 60, velocity: f64::INFINITY }),
+        TimedEvent::new(3, Event::NoteOn { key: 64, velocity: f64::NEG_INFINITY }),
     ]);
 }
 

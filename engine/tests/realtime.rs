@@ -161,10 +161,11 @@ fn random_event(rng: &mut Rng) -> Event {
     let key = 21 + rng.below(88) as u8;
     let level = |rng: &mut Rng| [0.0, 1.0, rng.unit_f32()][rng.below(3) as usize];
     match rng.below(12) {
-        0..=4 => {
-            Event::NoteOn { key, velocity: [1.0 / 127.0, 1.0, 0.05 + 0.95 * rng.unit_f32()][rng.below(3) as usize] }
-        }
-        5..=7 => Event::NoteOff { key, velocity: level(rng) },
+        0..=4 => Event::NoteOn {
+            key,
+            velocity: [1.0 / 127.0, 1.0, 0.05 + 0.95 * f64::from(rng.unit_f32())][rng.below(3) as usize],
+        },
+        5..=7 => Event::NoteOff { key, velocity: f64::from(level(rng)) },
         8 => Event::Sustain(level(rng)),
         9 => Event::PitchBend([-1.0, 1.0, 2.0 * rng.unit_f32() - 1.0][rng.below(3) as usize]),
         _ => match rng.below(10) {

@@ -731,7 +731,7 @@ fn the_pianos_velocity_sets_its_level_in_proportion() {
     let settings = default_settings(InstrumentKind::Piano, FS);
     let instrument = Instrument::build(&settings).unwrap();
     let mut s = Synth::new(Box::new(instrument)).0;
-    let mut level_db = |velocity: f32| {
+    let mut level_db = |velocity: f64| {
         let out = render(&mut s, 1.0, &[(0.0, Event::NoteOn { key: 60, velocity: velocity / 127.0 })], 256);
         render(&mut s, 3.0, &[(0.0, Event::NoteOff { key: 60, velocity: 0.5 })], 256);
         20.0 * rms(&out).log10()
@@ -1009,7 +1009,7 @@ fn a_soft_release_lets_the_damper_down_slowly_and_the_note_fades_longer() {
     // C4 held half a second and let up at a release velocity of 1, 0.5 and
     // 0.1 (the damper's landing thump off): samples from the release until the
     // output has fallen 40 dB under its level then.
-    let fade = |velocity: f32| {
+    let fade = |velocity: f64| {
         let mut s = synth(InstrumentKind::Piano);
         s.set_controls(Controls { damper_noise: 0.0, ..bridge() });
         let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.7 }), (0.5, Event::NoteOff { key: 60, velocity })];
@@ -1071,7 +1071,7 @@ fn a_clavichord_key_let_go_leaves_its_strings_no_faster_than_they_can_throw_its_
     // soft release must ring the body less than a hard one. (Left in 2 ms
     // whatever the release, the 50 ms after it stood 11 dB over the note's
     // last 50 ms, its peak 21 dB over its level.)
-    let after_release = |velocity: f32| {
+    let after_release = |velocity: f64| {
         let settings = struck_engine::synth::default_settings(InstrumentKind::Clavichord, FS);
         let mut s = Synth::new(Box::new(Instrument::build(&settings).unwrap())).0;
         let events = [(0.0, Event::NoteOn { key: 60, velocity: 0.8 }), (1.0, Event::NoteOff { key: 60, velocity })];
@@ -1107,7 +1107,7 @@ fn a_flood_of_notes_is_held_under_the_ceiling() {
     // A hundred thousand notes in a second, every key in turn at every
     // velocity (a MIDI feedback loop): +30 dBFS before the guard.
     let events: Vec<(f64, Event)> = (0..100_000)
-        .map(|i| (i as f64 * 1e-5, Event::NoteOn { key: 21 + (i % 88) as u8, velocity: (1 + i % 127) as f32 / 127.0 }))
+        .map(|i| (i as f64 * 1e-5, Event::NoteOn { key: 21 + (i % 88) as u8, velocity: (1 + i % 127) as f64 / 127.0 }))
         .collect();
     let (peak, report) = flood_peak(&events, 1.5);
     assert!(peak <= CEILING, "peak {peak}");

@@ -32,7 +32,7 @@
 //!   controllers, program changes, SysEx, meta events other than tempo) is ignored.
 //! - events after a track's End of Track are ignored.
 
-use struck_engine::synth::{BendRouter, Event, HammerRouter, PressureRouter, cc};
+use struck_engine::synth::{BendRouter, Event, HammerRouter, PressureRouter, cc, midi_velocity};
 
 /// A song longer than this (its last event), s, is refused rather than rendered.
 pub const MAX_SONG_S: f64 = 3600.0;
@@ -363,12 +363,14 @@ fn events_of(message: midly::MidiMessage) -> impl Iterator<Item = Event> {
     let mut out: [Option<Event>; 5] = [None; 5];
     match message {
         MidiMessage::NoteOn { key, vel } if vel.as_int() > 0 => {
-            out[0] = Some(Event::NoteOn { key: key.as_int(), velocity: f32::from(vel.as_int()) / 127.0 });
+            out[0] = Some(Event::NoteOn { key: key.as_int(), velocity: midi_velocity(vel.as_int()) });
         }
         // A note-on at velocity 0 carries no release velocity: MIDI's default, 64.
-        MidiMessage::NoteOn { key, .. } => out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: 64.0 / 127.0 }),
+        MidiMessage::NoteOn { key, .. } => {
+            out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: midi_velocity(64) })
+        }
         MidiMessage::NoteOff { key, vel } => {
-            out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: f32::from(vel.as_int()) / 127.0 });
+            out[0] = Some(Event::NoteOff { key: key.as_int(), velocity: midi_velocity(vel.as_int()) });
         }
         MidiMessage::Controller { controller, value } => {
             out = Event::from_controller(controller.as_int(), f32::from(value.as_int()) / 127.0);

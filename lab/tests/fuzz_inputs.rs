@@ -90,8 +90,9 @@ fn song(bytes: &[u8], sample_rate_hz: u32, include_channel_10: bool) -> Result<(
     prop_assert!(song.last_sample() <= longest, "{} samples is past the longest song", song.last_sample());
     for (_, event) in &song.events {
         let (key, values) = match *event {
-            Event::NoteOn { key, velocity } => (key, [velocity, 1.0]),
-            Event::NoteOff { key, velocity } | Event::Pressure { key, pressure: velocity } => (key, [velocity, 0.0]),
+            Event::NoteOn { key, velocity } => (key, [velocity as f32, 1.0]),
+            Event::NoteOff { key, velocity } => (key, [velocity as f32, 0.0]),
+            Event::Pressure { key, pressure } => (key, [pressure, 0.0]),
             Event::Sustain(v) | Event::Sostenuto(v) | Event::UnaCorda(v) | Event::ModWheel(v) => (0, [v, 0.0]),
             Event::PitchBend(v) => (0, [v.abs(), 0.0]),
             // An MPE note's bend, up to its range (96 semitones at most).

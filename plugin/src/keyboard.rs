@@ -5,7 +5,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 
-use struck_engine::synth::{Event, TimedEvent};
+use struck_engine::synth::{Event, TimedEvent, midi_velocity};
 
 /// The panel's request for one key: how many times it has been struck
 /// (above the low byte), whether it is held (bit 7) and its velocity (the low
@@ -170,7 +170,7 @@ impl KeyboardLink {
                 push(off);
             }
             if struck_again {
-                push(TimedEvent::new(0, Event::NoteOn { key, velocity: (now & VELOCITY) as f32 / 127.0 }));
+                push(TimedEvent::new(0, Event::NoteOn { key, velocity: midi_velocity((now & VELOCITY) as u8) }));
                 // A tap shorter than a block: struck, and let go at once.
                 if now & HELD == 0 {
                     push(off);

@@ -233,14 +233,14 @@ impl Performer {
                 }
                 self.poly_offsets[key as usize] = (0.0, 0.0);
                 self.hammers.note_on(key, channel).into_iter().for_each(&mut push);
-                push(Event::NoteOn { key, velocity: high_resolution_velocity(velocity, low) });
+                push(Event::NoteOn { key, velocity: f64::from(high_resolution_velocity(velocity, low)) });
                 self.pressure.note_on(key, channel).into_iter().for_each(push);
             }
             NoteEvent::NoteOff { key: Key::Number(key), velocity, .. } if key < 128 => {
                 self.pressure.note_off(key);
                 self.bends.note_off(key);
                 self.hammers.note_off(key);
-                push(Event::NoteOff { key, velocity });
+                push(Event::NoteOff { key, velocity: f64::from(velocity) });
             }
             NoteEvent::NoteOff { key: Key::Wildcard, .. } => push(Event::AllNotesOff),
             NoteEvent::PolyPressure { key: Key::Number(key), pressure, .. } if key < 128 => {
@@ -317,11 +317,23 @@ impl Performer {
         let (voice_id, channel) = (VoiceID::Wildcard, Channel::Number(0));
         match event.event {
             Event::NoteOn { key, velocity } => self.translate(
-                NoteEvent::<()>::NoteOn { timing: 0, voice_id, channel, key: Key::Number(key), velocity },
+                NoteEvent::<()>::NoteOn {
+                    timing: 0,
+                    voice_id,
+                    channel,
+                    key: Key::Number(key),
+                    velocity: velocity as f32,
+                },
                 event.time,
             ),
             Event::NoteOff { key, velocity } => self.translate(
-                NoteEvent::<()>::NoteOff { timing: 0, voice_id, channel, key: Key::Number(key), velocity },
+                NoteEvent::<()>::NoteOff {
+                    timing: 0,
+                    voice_id,
+                    channel,
+                    key: Key::Number(key),
+                    velocity: velocity as f32,
+                },
                 event.time,
             ),
             _ => self.events.push(event),
@@ -599,7 +611,7 @@ mod tests {
             .events
             .iter()
             .filter_map(|e| match e.event {
-                Event::NoteOn { velocity, .. } => Some(velocity),
+                Event::NoteOn { velocity, .. } => Some(velocity as f32),
                 _ => None,
             })
             .collect();

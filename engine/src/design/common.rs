@@ -380,7 +380,7 @@ mod tests {
     /// One key played alone from silence through the synth at `velocity` (with the
     /// sustain pedal down if `pedal`): the RMS of its output (the channels' mean)
     /// from 50 to 300 ms, and the peak of either channel over 0.35 s, dBFS.
-    fn ringing_and_peak_dbfs(synth: &mut Synth, key: u8, velocity: f32, pedal: bool) -> (f64, f64) {
+    fn ringing_and_peak_dbfs(synth: &mut Synth, key: u8, velocity: f64, pedal: bool) -> (f64, f64) {
         let n = (0.35 * SAMPLE_RATE_HZ) as usize;
         let (mut left, mut right) = (vec![0.0f32; n], vec![0.0f32; n]);
         let sustain = TimedEvent::new(0, Event::Sustain(if pedal { 1.0 } else { 0.0 }));
@@ -524,8 +524,7 @@ mod tests {
         for key in kind.key_range() {
             let (d, course_keys) = course(kind, key);
             let applied = level.course_gain_per_n(&course_keys, 1.0, d.pan);
-            let (ringing, _) =
-                ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity() as f32, false);
+            let (ringing, _) = ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity(), false);
             let (_, peak) = ringing_and_peak_dbfs(&mut synth, key, 1.0, false);
             let gain_db = 20.0 * applied.log10();
             println!(
@@ -570,8 +569,7 @@ mod tests {
                 // player hears the ringing tone with the pedal down.
                 let (d, course_keys) = course(kind, key);
                 let pedal = d.damper.is_some_and(|d| d.pedal_only);
-                let (ringing, _) =
-                    ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity() as f32, pedal);
+                let (ringing, _) = ringing_and_peak_dbfs(&mut synth, key, kind.touch_range().level_velocity(), pedal);
                 let (_, peak) = ringing_and_peak_dbfs(&mut synth, key, 1.0, pedal);
                 let capped = level.capped(&course_keys, d.pan);
                 let what =

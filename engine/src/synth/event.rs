@@ -4,10 +4,10 @@
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
     /// A key goes down; `velocity` in (0, 1] (MIDI velocity / 127).
-    NoteOn { key: u8, velocity: f32 },
+    NoteOn { key: u8, velocity: f64 },
     /// A key comes up; `velocity` in [0, 1] (MIDI release velocity / 127; 0.5
     /// from a keyboard that does not measure it): how hard its damper lands.
-    NoteOff { key: u8, velocity: f32 },
+    NoteOff { key: u8, velocity: f64 },
     /// CC64, 0 (dampers on the strings) to 1 (all dampers lifted); in between, half-pedal.
     Sustain(f32),
     /// CC66, held at or above 0.5: the keys down at that moment keep their dampers lifted.
@@ -56,6 +56,14 @@ pub enum Event {
 pub struct TimedEvent {
     pub time: u32,
     pub event: Event,
+}
+
+/// A MIDI velocity (0..=127) as the engine takes it, 0..=1. Normalised in 32
+/// bits, as plugin hosts carry it (nice-plug hands the plugin its note
+/// velocities as `f32`), so a MIDI file rendered offline plays the very
+/// touch the plugin would.
+pub fn midi_velocity(value: u8) -> f64 {
+    f64::from(f32::from(value) / 127.0)
 }
 
 impl TimedEvent {

@@ -28,7 +28,7 @@ mod workshop;
 
 use serde::{Deserialize, Serialize};
 
-pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, TimedEvent, cc};
+pub use event::{BendRouter, Event, HAMMER_SPAN, HammerRouter, PressureRouter, TimedEvent, cc, midi_velocity};
 pub use guard::{GuardReport, Silenced};
 pub use paced::{Ahead, MAX_PACED_LATENCY, PACED_BUDGET, PACED_LATENCY_S, Paced};
 pub use scope::{Scope, ScopeFrame};
@@ -343,7 +343,7 @@ impl Synth {
             // sample of the key NaN); an infinite one is held to the range, as any other.
             Event::NoteOn { velocity, .. } if velocity.is_nan() => {}
             Event::NoteOn { key, velocity } if velocity <= 0.0 => self.note_off(key, 0.0),
-            Event::NoteOn { key, velocity } => self.note_on(key, velocity as f64),
+            Event::NoteOn { key, velocity } => self.note_on(key, velocity),
             Event::NoteOff { key, velocity } => self.note_off(key, velocity),
             Event::Sustain(v) if v.is_finite() => self.performance.pedal_to(v as f64),
             Event::Sostenuto(v) => {
@@ -443,9 +443,8 @@ impl Synth {
 
     /// `midi_key` comes up with release `velocity` (0 or unknown: MIDI's
     /// default, 64, as many keyboards send 0 for a release they do not measure).
-    fn note_off(&mut self, midi_key: u8, velocity: f32) {
-        let velocity =
-            if velocity > 0.0 && velocity.is_finite() { (velocity as f64).min(1.0) } else { DEFAULT_RELEASE };
+    fn note_off(&mut self, midi_key: u8, velocity: f64) {
+        let velocity = if velocity > 0.0 && velocity.is_finite() { velocity.min(1.0) } else { DEFAULT_RELEASE };
         let noise = self.controls.noise();
         if let Some((key, note)) = self.current.route(midi_key) {
             key.set_noise(noise);

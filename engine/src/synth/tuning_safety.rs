@@ -108,7 +108,7 @@ fn chord(kind: InstrumentKind) -> Vec<TimedEvent> {
             let semitones = [24.0, -24.0, 7.5, -17.0][(i / 4) % 4];
             events.push(TimedEvent::new(0, Event::KeyBend { key, semitones }));
         }
-        events.push(TimedEvent::new(0, Event::NoteOn { key, velocity: 0.4 + 0.05 * (i % 10) as f32 }));
+        events.push(TimedEvent::new(0, Event::NoteOn { key, velocity: 0.4 + 0.05 * (i % 10) as f64 }));
     }
     events
 }
@@ -200,7 +200,7 @@ fn random_scales_and_bends_play_finite_at_the_level_of_equal_temperament() {
                 let semitones = (rng.unit() as f32 - 0.5) * 192.0;
                 events.push(TimedEvent::new(0, Event::KeyBend { key, semitones }));
             }
-            events.push(TimedEvent::new(0, Event::NoteOn { key, velocity: rng.unit() as f32 }));
+            events.push(TimedEvent::new(0, Event::NoteOn { key, velocity: rng.unit() }));
         }
         let found = run(&tuned(kind, Some(&scale)), &events, 1.5, 0.4);
         let equal = run(&tuned(kind, None), &events, 1.5, 1.5);

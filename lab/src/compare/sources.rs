@@ -14,7 +14,7 @@ use std::process::{Command, Stdio};
 use serde::Serialize;
 use struck_engine::body::Output;
 use struck_engine::preset::Preset;
-use struck_engine::synth::{Event, Instrument, Synth, TimedEvent};
+use struck_engine::synth::{Event, Instrument, Synth, TimedEvent, midi_velocity};
 
 use super::measure::mono_sum;
 use super::nominal_hz;
@@ -85,7 +85,7 @@ pub fn render_struck(
     while start < total {
         let len = block.min(total - start);
         let events = if start == 0 {
-            vec![TimedEvent::new(0, Event::NoteOn { key, velocity: f32::from(velocity) / 127.0 })]
+            vec![TimedEvent::new(0, Event::NoteOn { key, velocity: midi_velocity(velocity) })]
         } else {
             Vec::new()
         };

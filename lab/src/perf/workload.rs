@@ -22,7 +22,7 @@ pub const SAMPLE_RATE_HZ: f64 = 48_000.0;
 /// The host's block, samples.
 pub const BLOCK: usize = 64;
 /// MIDI velocity 102, as a fraction.
-pub const VELOCITY: f32 = 102.0 / 127.0;
+pub const VELOCITY: f64 = 102.0 / 127.0;
 /// The 10-key chord struck into the ringing keyboard: C3 E3 G3 C4 E4 G4 C5 E5 G5 C6.
 pub const CHORD10: [u8; 10] = [48, 52, 55, 60, 64, 67, 72, 76, 79, 84];
 /// Where in its block the 10-key chord lands (any sample: not on a boundary).
@@ -31,7 +31,7 @@ const CHORD10_OFFSET: u32 = 17;
 /// contact at once): C2 G2 C3 E3 G3 B3 | C4 D4 E4 G4 A4 C5 D5 E5 G5 A5 C6 E6 G6 C7.
 pub const CHORD20: [u8; 20] = [36, 43, 48, 52, 55, 59, 60, 62, 64, 67, 69, 72, 74, 76, 79, 81, 84, 88, 91, 96];
 /// MIDI velocity 120 (fortissimo), as a fraction.
-pub const CHORD20_VELOCITY: f32 = 120.0 / 127.0;
+pub const CHORD20_VELOCITY: f64 = 120.0 / 127.0;
 /// Where in its block the 20-key chord lands.
 const CHORD20_OFFSET: u32 = 41;
 /// Blocks after a chord's strike in which its hammers are on the strings (the

@@ -4,12 +4,43 @@
 //! has those). A note walks down the folders in order and never turns back:
 //!
 //! ```text
-//! synth ──> key ──> exciter ──> struck_string ──> string + modal_bank
-//!            │      (hammer, tangent, pluck)
-//!            ├──> damper
-//!            └──> body (the bridge: where every key's force goes)
+//! synth ──> key ──> struck_string ──> exciter ──> string + modal_bank
+//!  │         │       (hammer, tangent, pluck)
+//!  │         ├──> damper, action, phantom
+//!  │         └──> body (the bridge: where every key's force goes)
+//!  └──> performance (the pedals and wheels, handed to the keys)
 //! design + tuning: what each key is built from, off the audio thread
 //! ```
+//!
+//! The walk of one note, as the code runs it:
+//!
+//! ```text
+//! a host's note, or a MIDI file's (synth::midi_velocity)
+//!   │ Event::NoteOn { key, velocity: f64 }
+//!   v
+//! Synth::process: cut at events and every CONTROL_BLOCK            synth/mod.rs
+//!   │ velocity ──> Controls::touch ──> Touch (m/s, or a lift in mm)  synth/settings.rs
+//!   │ key ──> the course that plays it, and which of its notes       synth/instrument.rs
+//!   v
+//! Key::press(note, touch, &PerformanceState)                         key/strike.rs
+//!   │ una corda, the hammer's share of each string, the regulation
+//!   v
+//! StruckString::strike_substepped: string and hammer stepped         struck_string.rs
+//!   │ together, the contact force F = K C^alpha solved implicitly     exciter/hammer/
+//!   v
+//! the string's modes, one complex multiply a mode and sample         modal_bank/
+//!   │ (once the hammer has gone: gathered with the key's other
+//!   │ free strings and run as one bank)                               key/render.rs
+//!   v
+//! Key::sound ──> Key::drive ──> Bridge ──> Soundboard ──> microphones  body/
+//!   v
+//! Outlet: DC block, output gain ──> the host's two channels          synth/output.rs
+//! ```
+//!
+//! Once per control block each sounding key moves its damper, retunes, trades
+//! its unison's energy through the body, culls its faded modes and notices
+//! silence (key/control.rs); the sympathetic strings trade between keys
+//! (synth/sympathy.rs).
 //!
 //! 1. [`string`]: a [`string::StringSpec`] (length, tuning, mass, stiffness,
 //!    damping) is turned once, when a key is built, into a
@@ -33,7 +64,10 @@
 //!    of its notes, its damper, its fade and voice stealing. It hands its force
 //!    to the [`body::Bridge`] at its [`body::BridgePoint`], never to the mix.
 //! 6. [`body`]: what the bridge drives and what reaches the output.
-//! 7. [`synth`]: the real-time instrument: [`synth::Synth::process`] plays
+//! 7. [`performance`]: what the player is doing with the instrument as a
+//!    whole (pedals, wheels, una corda, each MIDI key's own shaping), kept by
+//!    the synth and handed whole to the keys.
+//! 8. [`synth`]: the real-time instrument: [`synth::Synth::process`] plays
 //!    events sample-accurately without allocating, and a [`synth::Workshop`]
 //!    thread rebuilds the tables when the settings change and hands them over
 //!    through lock-free queues.

@@ -24,7 +24,7 @@
 //! H(w) = sum_{k odd} (8 / (k pi)^2) / (1 - (w / w_k)^2 + i w / (Q_L w_k))
 //! (H(0) = 1): Bank & Sujbert's "formant-like peaks at the longitudinal modal
 //! frequencies". The first, f_L = c_L / (2 L) with c_L^2 = E A_core / mu, is
-//! 2500/L Hz for plain steel (Conklin 1996, physics reference 5.1).
+//! 2500/L Hz for plain steel (Conklin, JASA 99, 1996).
 //!
 //! The bridge turns a part of that pull along the string into a push on the
 //! board ([`LONGITUDINAL_TO_BOARD`]); the rest of the pull is taken by the

@@ -15,7 +15,7 @@ use struck_lab::analysis::spectrum::{partial_levels_db, track_partial};
 use struck_lab::strike::run::{CONTACT_MERGE_GAP_S, merge_contacts};
 use struck_lab::strike::{self, ExciterSpec};
 
-/// Broadwood C1 (physics reference 1.10): one wound string, 1.013 m, 189 g,
+/// Broadwood C1 (Euphonics 12.2.1, Table 1): one wound string, 1.013 m, 189 g,
 /// steel core 1.21 mm (E = 210 GPa), tuned to 32.70 Hz.
 fn c1_string(damping: Damping, max_frequency_hz: f64) -> StringModes {
     StringSpec {

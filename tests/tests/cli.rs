@@ -109,7 +109,7 @@ fn strike_writes_metrics_and_a_trace_row_per_sample() {
         assert!(metrics["string"].get(field).is_some(), "metrics.json string lacks {field}");
     }
     assert_eq!(metrics["contact_count"], metrics["contacts"].as_array().unwrap().len());
-    // sqrt(T mu) of the santoor string, 0.543 N s/m (physics reference 1.8).
+    // sqrt(T mu) of the santoor string, 0.543 N s/m (Euphonics 12.2.2).
     assert!((metrics["string"]["impedance_ns_m"].as_f64().unwrap() - 0.543).abs() < 0.002);
 
     let trace = Csv::read(&s.out().join("trace.csv"));

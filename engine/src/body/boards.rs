@@ -635,7 +635,7 @@ fn dulcimer() -> BodyDesign {
 }
 
 /// Concert cimbalom (keys 36-88). Top: trapezoid with sides about 1.40 and
-/// 0.95 m (Schunda, physics reference 5.2) by 0.7 m, taken as 1.18 m x 0.7 m,
+/// 0.95 m (Schunda's concert cimbalom; Pap, American Lutherie 61, 2000) by 0.7 m, taken as 1.18 m x 0.7 m,
 /// 8 mm spruce with ribs at 0.15 m, 20 mm x 15 mm (assumption: a piano-like
 /// construction on a smaller scale). Box 0.12 m deep, three roses of 40 mm
 /// radius (assumption). Bridges: wound bass courses 36-51 on the right bridge,

@@ -10,7 +10,7 @@
 //!
 //! omega_mn^2 rho h = pi^4 [D1 (Gx/a)^4 + 2 D3 Hx Hy / (a b)^2 + D2 (Gy/b)^4]
 //!
-//! with Gx = m, Hx = m^2 for simply supported edges (the brief's formula
+//! with Gx = m, Hx = m^2 for simply supported edges (the familiar formula
 //! omega = pi^2/sqrt(rho h) sqrt(D1 (m/a)^4 + 2 D3 (mn/ab)^2 + D2 (n/b)^4)), and
 //! for clamped edges G = 1.506 (first mode) or m + 1/2, H = G^2 (1 - 2/(G pi)).
 //! Mode shapes are sin(m pi x) sin(n pi y) with unit peak for both boundaries

@@ -17,7 +17,7 @@ use crate::string::damping::{Damping, LossModel, PhysicalLoss};
 use crate::string::{Mass, StringSpec};
 
 /// Compression at which a voiced exponent keeps the felt's force unchanged, m
-/// (a typical forte compression of a mid-range piano hammer; physics reference 1.5).
+/// (a typical forte compression of a mid-range piano hammer; Euphonics 12.2.1).
 pub(crate) const REFERENCE_COMPRESSION_M: f64 = 0.5e-3;
 
 /// ln(1000): the decay exponent for 60 dB of amplitude.
@@ -27,9 +27,9 @@ pub(super) const DECAY_60_DB: f64 = 6.907_755_278_982_137;
 pub(super) const STEEL_DENSITY_KG_M3: f64 = 7850.0;
 /// Young's modulus of music-wire steel, Pa.
 pub(super) const STEEL_MODULUS_PA: f64 = 2.0e11;
-/// Density of (yellow or red) brass wire, kg/m^3 (physics reference 1.6).
+/// Density of (yellow or red) brass wire, kg/m^3 (Euphonics 12.2.3's worked clavichord strings).
 pub(super) const BRASS_DENSITY_KG_M3: f64 = 8500.0;
-/// Young's modulus of brass wire, Pa (physics reference 1.6).
+/// Young's modulus of brass wire, Pa (Euphonics 12.2.3's worked clavichord strings).
 pub(super) const BRASS_MODULUS_PA: f64 = 1.0e11;
 /// Density of the copper (or bronze) wire wrapped on a wound bass string, kg/m^3
 /// (copper 8930, phosphor bronze 8860).
@@ -132,7 +132,7 @@ pub(super) fn damper(decay_60_db_s: f64, rate_per_hz_s: f64, f1_hz: f64, travel_
     DamperDesign { rate_s, rate_per_hz_s, travel_s, pedal_only: false, head_mass_kg: crate::action::DAMPER_MASS_KG }
 }
 
-/// Where an instrument's strings lose their energy (physics reference 1.4 and 1.7).
+/// Where an instrument's strings lose their energy (Euphonics 5.4, 7.2.2 and, for the clavichord's tangent, 12.2.4).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Losses {
     /// eta_E of the wire.

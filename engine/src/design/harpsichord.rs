@@ -1,6 +1,6 @@
 //! The harpsichord, for comparison: a single 8' register of brass strings after
-//! the anonymous Italian single-manual of Naples, c. 1620 (Russell Collection;
-//! physics reference 5.3), plucked as Woodhouse's "wire-break" pluck.
+//! the anonymous Italian single-manual of Naples, c. 1620 (Russell Collection,
+//! University of Edinburgh), plucked as Woodhouse's "wire-break" pluck.
 //!
 //! The table gives string length and plucking point for c, f and a few other
 //! notes. Its unnamed rows are placed by their lengths (201 mm is f'', 385.5 mm f',

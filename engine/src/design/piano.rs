@@ -8,7 +8,7 @@
 //! the break (D#3 1.08 m); its wound cores are sized for the inharmonicity the C5's
 //! recordings show at A0, F#1 and A2, rising into the first plain string's. The
 //! rest is Euphonics 12.2's Broadwood baby grand: the total impedance of its C
-//! strings (Euphonics 12.2.1, Table 1; physics reference 1.10), its stringing (17
+//! strings (Euphonics 12.2.1, Table 1), its stringing (17
 //! single wound strings A0-C#2, 13 wound pairs D2-D3, 58 plain steel triplets
 //! D#3-C8) and hammers, and the Chaigne & Askenfelt (1994) felt of the C2, C4
 //! and C7 hammers. As the maker did (Euphonics 12.2, Figs. 8-10), the total
@@ -71,7 +71,8 @@ const LAST_DAMPED_KEY: u8 = 90;
 
 /// Losses of the strings: steel's internal friction (the engine's default) and a
 /// soundboard bridge of Re Y = 5e-4 s/kg (a drive-point impedance of 2 kN s/m,
-/// the order quoted for piano bridges, physics reference 6). A string's
+/// the order of a piano bridge's, about 10^3 N s/m at low frequencies:
+/// Wogram's input impedance measurements, KTH "Five lectures"). A string's
 /// fundamental then dies by 60 dB in about 19 s at A0, 11 s at C4, 4 s at C6 and
 /// 1 s at C8.
 const LOSSES: Losses = Losses { internal_loss_factor: 3.0e-4, bridge_admittance_s_kg: 5.0e-4, tangent: None };

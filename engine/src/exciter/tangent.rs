@@ -21,7 +21,7 @@
 //!   dT / T = E A (1 / (2 L1) + 1 / (2 L2)) W^2 / ((L1 + L2) T),
 //!
 //! which raises the pitch by the factor sqrt(1 + dT / T): quadratic in W, a few
-//! cents at W = 2 mm (physics reference 1.6; the seed's Fig. 29, after Thwaites &
+//! cents at W = 2 mm (Euphonics 12.2.3; the seed's Fig. 29, after Thwaites &
 //! Fletcher 1981).
 
 use std::f64::consts::PI;

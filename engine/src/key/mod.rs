@@ -52,7 +52,7 @@ use crate::CONTROL_BLOCK;
 const HAMMER_GONE_GAP_M: f64 = 0.5e-3;
 const HAMMER_GONE_AFTER_S: f64 = 0.03;
 /// Una corda: the hammer meets the strings with its less worn, softer felt. The
-/// factor on K is our assumption (the physics reference has no measurement of it).
+/// factor on K is our assumption (no measurement of it was found).
 const UNA_CORDA_STIFFNESS: f64 = 0.5;
 /// A string the shifted hammer meets with less than this share of its width
 /// is missed.

@@ -23,7 +23,7 @@ pub const AIR_DENSITY_KG_M3: f64 = 1.2;
 pub const STEEL_DENSITY_KG_M3: f64 = 7850.0;
 
 /// Default internal loss factor of music wire. The literature puts steel between
-/// 1e-4 and 1e-3 (physics reference 1.4, not confirmed); this sits in the middle.
+/// 1e-4 and 1e-3 (Woodhouse, Euphonics 5.4 and 7.2.2; not confirmed); this sits in the middle.
 pub const DEFAULT_INTERNAL_LOSS_FACTOR: f64 = 3.0e-4;
 /// Default real part of the bridge admittance, s/kg: a generic wooden bridge on a
 /// soundboard (impedance of order 1e3 N s/m). Gives a santoor string a

@@ -5,7 +5,7 @@
 //! whenever the settings change) and handed to the [`Synth`], which plays it.
 //! [`Synth::process`] never allocates, locks or waits.
 //!
-//! Keys, not notes (engine-numerics 5): a note-on strikes the key's strings in
+//! Keys, not notes: a note-on strikes the key's strings in
 //! whatever state they are in. Processing is split at events and at every
 //! [`CONTROL_BLOCK`] samples of the synth's own clock, where dampers move,
 //! bends retune, silent keys stop and the live view is fed. The split points

@@ -8,7 +8,7 @@
 //! only until the hammer can no longer come back ([`StruckString::hammer_clear`]),
 //! which makes a point cost about a millisecond instead of a whole note.
 //!
-//! # Universal variables (Euphonics 12.2.2; physics reference 1.8)
+//! # Universal variables (Euphonics 12.2.2)
 //!
 //! Neglecting damping and bending stiffness during contact, length x = L xi,
 //! time t = tau / f1 and displacement y = W u with W = V / f1 turn the string and
@@ -70,7 +70,7 @@ pub const LINEAR_MASS_FRACTIONS: (f64, f64) = (0.02, 2.0);
 /// Decades either side of the nominal mass of a [`HammerGrid::log_mass`] grid
 /// (Figs. 18-22). With a C4 hammer on the C4 string (mu = 0.77) the grid spans
 /// mu = 0.024 to 24, which holds the Broadwood Cs from C1 (mu = 0.048 with the C4
-/// hammer) to C8 (mu = 17) (physics reference 1.10).
+/// hammer) to C8 (mu = 17) (Euphonics 12.2.1, Table 1).
 pub const LOG_MASS_DECADES: f64 = 1.5;
 
 /// Decades either side of the nominal stiffness K of both grid layouts: the
@@ -627,7 +627,7 @@ mod tests {
         }
     }
 
-    /// Broadwood C4, the three strings aggregated (physics reference 1.10): 0.639 m,
+    /// Broadwood C4, the three strings aggregated (Euphonics 12.2.1, Table 1): 0.639 m,
     /// 11.7 g in all, B 3.6e-4; its 9 g hammer, K 4.5e9, alpha 2.5, at 0.125, 2.5 m/s.
     fn broadwood_c4() -> StrikeCase {
         let hammer = HammerSpec {

@@ -23,7 +23,7 @@ pub struct PerformanceState {
     pub sustain: f64,
     /// The sustain pedal has lifted the dampers (until it comes back up), and
     /// how far through its spread of control blocks they are leaving their
-    /// strings ([`LIFT_SPREAD_BLOCKS`]).
+    /// strings (over `LIFT_SPREAD_BLOCKS` control blocks).
     pub dampers_lifted: bool,
     pub lifting: Option<usize>,
     /// The sostenuto pedal is down.

@@ -37,7 +37,7 @@ Usage:
   cargo xtask piano-scale
       Write the per-key scales of the piano, the fortepiano and the seed's
       Broadwood, engine/data/piano-scale.csv, fortepiano-scale.csv and
-      broadwood-scale.csv, from the rules in xtask/src/piano_scale.rs.
+      broadwood-scale.csv, from the rules in xtask/src/piano_scale/.
   cargo xtask bundle struck [--release]
       nice-plug's bundler: target/bundled/Struck.clap, Struck.vst3 and the
       standalone. Any command not listed here goes to nice-plug-xtask.

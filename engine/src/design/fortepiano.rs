@@ -4,7 +4,7 @@
 //! scale, `engine/data/fortepiano-scale.csv`.
 //!
 //! The scale is derived by `cargo xtask piano-scale` under the same rules as the
-//! piano's (xtask/src/piano_scale.rs; the file's header lists them): plain brass
+//! piano's (xtask/src/piano_scale/; the file's header lists them): plain brass
 //! in the bass (F1-B2), soft iron above, pairs of strings to E5 and triplets from
 //! F5, the total impedance of a note's strings kept smooth through both breaks
 //! (its largest step between neighbours is 7 %, a wire-size change). No measured

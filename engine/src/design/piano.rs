@@ -1,7 +1,7 @@
 //! The piano: the 88 keys of a grand of the Yamaha C5's size (2.00 m), each key's
 //! strings and hammer read from its scale, `engine/data/piano-scale.csv`.
 //!
-//! The scale is derived by `cargo xtask piano-scale` (xtask/src/piano_scale.rs;
+//! The scale is derived by `cargo xtask piano-scale` (xtask/src/piano_scale/;
 //! the file's header gives the rules). Its lengths are those of grands around
 //! the C5's size (A0 a Yamaha C3's 1.40 m, C4-C5 a Steinway M's, from C6 up the
 //! Broadwood's), the lowest plain strings held at C4's working stress down to

@@ -19,13 +19,13 @@ use crate::body::{Bridge, BridgePoint, KeyPan};
 use crate::damper::Damper;
 use crate::design::{ExciterDesign, InstrumentKind, KeyDesign, LiveVoicing, ResistiveBridge, Touch};
 use crate::exciter::hammer::contact::ContactLaw;
-use crate::exciter::hammer::substeps::SubstepPlan;
 use crate::exciter::hammer::{HammerSpec, Hysteresis};
 use crate::exciter::pluck::PluckSpec;
 use crate::exciter::tangent::{self, TangentSpec};
 use crate::modal_bank::{FreeGather, LANES, add_lane_sums};
 use crate::phantom::{Phantom, PhantomTable};
 use crate::string::{StringError, StringModes};
+use crate::struck_string::substeps::SubstepPlan;
 use crate::struck_string::{DEFAULT_SUBSTEPS, StruckString};
 
 use crate::CONTROL_BLOCK;

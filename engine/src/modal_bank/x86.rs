@@ -7,7 +7,8 @@
 
 use std::arch::x86_64::*;
 
-use super::{CHAIN, LANES, lane_sum};
+use super::LANES;
+use super::kernels::{CHAIN, lane_sum};
 
 /// The slices of one driven step: state, pole, carry and observation weights,
 /// all the same length, a multiple of [`LANES`].

@@ -7,12 +7,14 @@
 //! contact ([`crate::exciter::hammer`]), a tangent moves its far end
 //! ([`crate::exciter::tangent`]). A string can keep sub-step tables for several
 //! sub-step counts and a strike picks one (a key picks the fewest that keep the
-//! strike within its error budget, [`crate::exciter::hammer::substeps`]).
+//! strike within its error budget, [`substeps`]).
 //!
 //! Striking again continues from the string's present state.
 
 // The audio thread steps every string: nothing here may panic.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod substeps;
 
 use crate::exciter::Exciter;
 use crate::exciter::hammer::{Hammer, HammerRig, HammerSpec, Substep};
@@ -22,7 +24,7 @@ pub use crate::exciter::{ContactObserver, Tick};
 use crate::modal_bank::{FreeGather, LANES, ModalBank, SavedPoles, StepTable};
 use crate::string::StringModes;
 
-/// Sub-steps per sample while a hammer is in or near contact (engine-numerics 2).
+/// Sub-steps per sample while a hammer is in or near contact.
 pub const DEFAULT_SUBSTEPS: usize = 8;
 
 /// A bend takes no mode past this fraction of the sample rate (the highest

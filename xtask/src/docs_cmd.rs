@@ -27,6 +27,8 @@ pub const WRITERS: [(&str, &str, &[&str]); 4] = [
             "each_partial_decays_at_its_own_rate_through_the_body",
             "the_loudest_touch_peaks_under_minus_1_dbfs_through_the_microphones",
             "a_held_note_decays_fast_then_slowly",
+            "neighbouring_keys_ring_alike_at_every_touch",
+            "every_instrument_survives_mono_from_every_perspective",
         ],
     ),
     (

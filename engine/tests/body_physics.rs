@@ -1,10 +1,14 @@
 //! Checks of the body model against published measurements (sources in the
-//! README's "The body" and in engine/src/body/boards.rs). Run with `cargo test -- --nocapture` to see the printed numbers.
+//! README's "The body" and in engine/src/body/boards.rs). Run with `cargo test -- --nocapture` to see the printed numbers;
+//! `report_table` writes docs/validation.md's board table (`cargo xtask docs`).
 
 use struck_engine::body::boards::{BOARD_LOSS_FACTOR, BodyDesign, design};
 use struck_engine::body::plate::{self, log_mean_abs_mobility, mean_mobility, modal_density};
 use struck_engine::body::radiation::radiation_loss_factor;
 use struck_engine::design::InstrumentKind;
+
+#[path = "support/validation_doc.rs"]
+mod validation_doc;
 
 /// Modes carried explicitly for the mobility checks, Hz.
 const MAX_HZ: f64 = 10_000.0;
@@ -196,15 +200,13 @@ fn piano_mobility_rises_above_1_khz() {
     }
 }
 
-/// Prints the README's body table: for each instrument the board, its first mode,
-/// mode counts, mean mobility, and |Y| at a middle key's bridge point averaged
-/// over a third octave around 100 Hz, 1 kHz and 5 kHz (explicit modes up to the
-/// inter-rib frequency or 10 kHz, continuum above).
+/// docs/validation.md's board table: for each instrument the board, its first
+/// mode, mode counts, mean mobility, and |Y| at a middle key's bridge point
+/// averaged over a third octave around 100 Hz, 1 kHz and 5 kHz (explicit modes
+/// up to the inter-rib frequency or 10 kHz, continuum above).
 #[test]
 fn report_table() {
-    println!(
-        "| instrument | board a x b (m) | h (mm) | mass (kg) | first mode (Hz) | air (Hz) | < 1 kHz | < 5 kHz | < 10 kHz | n/(4M) (s/kg) | key | abs Y 100 Hz | 1 kHz | 5 kHz |"
-    );
+    let mut rows = Vec::new();
     for i in InstrumentKind::ALL {
         let d = design(i);
         let p = &d.plate;
@@ -216,21 +218,32 @@ fn report_table() {
             let band = (f * 2f64.powf(-1.0 / 6.0), f * 2f64.powf(1.0 / 6.0));
             log_mean_abs_mobility(p, &modes, lim, d.bridge_point(key), band, 200)
         };
-        println!(
-            "| {i:?} | {:.2} x {:.2} | {:.1} | {:.1} | {:.0} | {} | {} | {} | {} | {:.2e} | {key} | {:.2e} | {:.2e} | {:.2e} |",
-            p.length_m,
-            p.width_m,
-            p.thickness_m * 1e3,
-            p.mass_kg(),
-            plate::modes(p, 2000.0)[0].frequency_hz,
-            d.air.map_or("-".to_string(), |a| format!("{:.0}", a.frequency_hz())),
-            count(1000.0),
-            count(5000.0),
-            count(10_000.0),
-            mean_mobility(p),
-            y(100.0),
-            y(1000.0),
-            y(5000.0),
-        );
+        let mm = format!("{:.1}", p.thickness_m * 1e3);
+        println!("{i}: mass {:.1} kg, < 5 kHz {} modes, middle key {key}", p.mass_kg(), count(5000.0));
+        rows.push(vec![
+            i.to_string(),
+            format!("{:.2} x {:.2}", p.length_m, p.width_m),
+            mm.strip_suffix(".0").unwrap_or(&mm).to_string(),
+            format!("{:.0} Hz", plate::modes(p, 2000.0)[0].frequency_hz),
+            d.air.map_or("-".to_string(), |a| format!("{:.0} Hz", a.frequency_hz())),
+            format!("{} / {}", count(1000.0), count(10_000.0)),
+            format!("{:.2e}", mean_mobility(p)),
+            format!("{:.2e} / {:.2e} / {:.2e}", y(100.0), y(1000.0), y(5000.0)),
+        ]);
+        println!("| {} |", rows.last().unwrap().join(" | "));
     }
+    validation_doc::table(
+        "table: board",
+        &[
+            "instrument",
+            "board (m)",
+            "mm",
+            "first mode",
+            "Helmholtz (uncoupled)",
+            "modes < 1 kHz / < 10 kHz",
+            "n/(4M), s/kg",
+            "abs Y at 100 Hz / 1 kHz / 5 kHz, s/kg (middle key)",
+        ],
+        &rows,
+    );
 }

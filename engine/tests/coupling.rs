@@ -2,12 +2,16 @@
 //! targets of the coupling issue): the sustain pedal lets the other strings
 //! ring with a note, the undamped treble answers a staccato note, the bass
 //! at forte grows components at sums of its partials, and una corda is
-//! quieter and darker.
+//! quieter and darker. The checks write their rows of docs/validation.md's
+//! table of the strings that share the bridge (`cargo xtask docs`).
 
 use realfft::RealFftPlanner;
 use struck_engine::body::Output;
 use struck_engine::design::InstrumentKind;
-use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings};
+use struck_engine::synth::{Controls, Event, Instrument, Synth, TimedEvent, default_settings, midi_velocity};
+
+#[path = "support/validation_doc.rs"]
+mod validation_doc;
 
 const FS: f64 = 48_000.0;
 
@@ -86,6 +90,14 @@ fn the_sustain_pedal_lets_the_other_strings_ring_with_a_held_note() {
     let ratio = db(energy(&difference)) - db(energy(a));
     println!("C4 held 3 s, pedal down against up: difference {ratio:.1} dB over 0.5-3 s");
     assert!((-40.0..=-6.0).contains(&ratio), "{ratio:.1} dB");
+    validation_doc::row(
+        "row: bridge pedal",
+        &[
+            "a held note with the pedal down differs from it without, -40 to -6 dB over 0.5-3 s".to_string(),
+            format!("C4 (velocity 80): {ratio:.1} dB"),
+            "met".to_string(),
+        ],
+    );
 }
 
 #[test]
@@ -227,6 +239,22 @@ fn after_a_staccato_note_the_undamped_treble_rings_on_at_its_own_pitch() {
         soft.ring_db,
         a.ring_db
     );
+    validation_doc::row(
+        "row: bridge treble",
+        &[
+            "after a staccato C4 the undamped treble rings on at its own pitch, at least -70 dB re the note (its \
+             keys' pitches, 0.5-1.5 s) and 40 dB over what it gives without the strings' coupling; at the bridge \
+             at least 6 dB fainter unstretched"
+                .to_string(),
+            format!(
+                "2.1 m/s (velocity 38): {:.1} dB ({:.1} dB over 1.5-2.5 s; G6 at its own {g6:.0} Hz, beside C4's 6th \
+                 partial at {sixth:.0} Hz); 1.3 m/s (velocity 24): {:.1} dB; tuned as a tuner tunes (the default \
+                 stretch); at the bridge {:.1} dB, and {:.1} dB unstretched",
+                a.ring_db, a.later_db, soft.ring_db, stretched.ring_db, et.ring_db
+            ),
+            "met".to_string(),
+        ],
+    );
 }
 
 #[test]
@@ -238,6 +266,14 @@ fn after_a_staccato_forte_note_the_undamped_treble_answers_at_more_than_minus_70
     );
     assert!(a.ring_db >= -70.0, "{:.1} dB", a.ring_db);
     assert!(a.ring_db > a.without_db + 40.0, "{:.1} against {:.1} dB", a.ring_db, a.without_db);
+    validation_doc::row(
+        "row: bridge treble forte",
+        &[
+            "the same after a staccato C4 at velocity 127".to_string(),
+            format!("{:.1} dB ({:.1} dB over 1.5-2.5 s)", a.ring_db, a.later_db),
+            "met".to_string(),
+        ],
+    );
 }
 
 #[test]
@@ -295,6 +331,22 @@ fn una_corda_shifts_the_action_quieter_and_darker_and_half_way_between() {
     assert!(full_bright < 0.95 * bright, "centroid {full_bright:.0} against {bright:.0} Hz");
     // Half a shift lies between.
     assert!(measured[1].1 < level && measured[1].1 > full_level, "{measured:?}");
+    validation_doc::row(
+        "row: bridge una corda",
+        &[
+            "una corda 1.5-6 dB quieter and darker (the spectral centroid 5 % lower or more) at the bridge, half \
+             a shift between"
+                .to_string(),
+            format!(
+                "C4 velocity 38: {:.1} dB, spectral centroid {bright:.0} -> {full_bright:.0} Hz (half a shift: \
+                 {:.1} dB, {:.0} Hz)",
+                full_level - level,
+                measured[1].1 - level,
+                measured[1].2
+            ),
+            "met".to_string(),
+        ],
+    );
 }
 
 /// The local maxima of `spec` over `floor` between `from_hz` and `to_hz`, Hz.
@@ -317,8 +369,8 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
     let design = struck_engine::design::key_design(InstrumentKind::Piano, &Default::default(), C2, 20_000.0).unwrap();
     let string = design.strings[design.struck.start].build().unwrap();
     let partial = |n: usize| string.partial_hz(n);
-    let mut ratios = Vec::new();
-    for velocity in [64.0 / 127.0, 1.0] {
+    let (mut ratios, mut counts, mut medians) = (Vec::new(), Vec::new(), Vec::new());
+    for velocity in [midi_velocity(64), 1.0] {
         let render = |phantom: f64| {
             // Unstretched, so that C2 sounds its design's own partials.
             let mut s = tuned_synth(InstrumentKind::Piano, Controls { phantom, ..Controls::default() }, 0.0);
@@ -369,9 +421,31 @@ fn the_bass_at_forte_grows_components_at_sums_of_its_partials() {
             median.1
         );
         ratios.push(upper);
+        counts.push(levels.len());
+        medians.push(median.0);
     }
     assert!(ratios[1].0 - ratios[0].0 >= 4.0, "{ratios:?}");
     assert!(ratios[1].1 >= 10.0, "at fortissimo the sums stand only {:.1} dB over the plain spectrum", ratios[1].1);
+    validation_doc::row(
+        "row: bridge sums",
+        &[
+            "C2 fortissimo: components at sums of partials, away from every transverse partial, rising at least \
+             4 dB re the partials from velocity 64 to 127, at 127 at least 10 dB over the spectrum without them"
+                .to_string(),
+            format!(
+                "{} such sums; their upper quartile {:.1} dB re the nearest partial at 64, {:.1} dB at 127 \
+                 ({:+.0} dB), {:.0} dB over the spectrum without them; the median {:.0} and {:.0} dB",
+                counts[1],
+                ratios[0].0,
+                ratios[1].0,
+                ratios[1].0 - ratios[0].0,
+                ratios[1].1,
+                medians[0],
+                medians[1]
+            ),
+            "met".to_string(),
+        ],
+    );
 }
 
 /// Peak and RMS level of `x`, dB full scale.
@@ -386,7 +460,7 @@ fn the_action_sounds_follow_the_touch_and_the_release() {
     let note_db = peak_db(&note);
     // The key bed: what the key adds, the same note with its bed silenced taken away.
     let mut bed = Vec::new();
-    for velocity in [40.0 / 127.0, 1.0] {
+    for velocity in [midi_velocity(40), 1.0] {
         let events = [(0.0, Event::NoteOn { key: C4, velocity })];
         let thump = added_by(InstrumentKind::Piano, Controls { key_noise: 0.0, ..Controls::default() }, &events, 0.3);
         bed.push(peak_db(&thump) - note_db);

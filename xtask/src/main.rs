@@ -1,9 +1,10 @@
-//! Struck's project tasks: `cargo xtask demo`, `cargo xtask test` and
-//! `cargo xtask piano-scale`, with everything else (`cargo xtask bundle struck
+//! Struck's project tasks: `cargo xtask demo`, `cargo xtask test`, `cargo
+//! xtask docs` and `cargo xtask piano-scale`, with everything else (`cargo xtask bundle struck
 //! --release`, ...) passed on to nice-plug-xtask.
 
 mod bundle;
 mod demo_cmd;
+mod docs_cmd;
 mod footprint;
 mod packages;
 mod piano_scale;
@@ -34,6 +35,10 @@ Usage:
       over JACK, the VST3 in Ardour (--list names them). Stops at the first
       failure. --release runs them on the release build instead of the dev
       profile's (which keeps debug assertions on).
+  cargo xtask docs
+      Write docs/validation.md's generated tables from the tests that measure
+      them (each such test runs with STRUCK_WRITE_DOCS=1; in a normal run it
+      fails when the doc says otherwise).
   cargo xtask piano-scale
       Write the per-key scales of the piano, the fortepiano and the seed's
       Broadwood, engine/data/piano-scale.csv, fortepiano-scale.csv and
@@ -59,6 +64,7 @@ enum Task {
     Help,
     Demo(Options),
     Test(TestOptions),
+    Docs,
     PianoScale,
     /// Anything else, for nice-plug-xtask.
     NicePlug(Vec<String>),
@@ -110,6 +116,11 @@ fn parse(args: &[String]) -> Result<Task> {
             }
             Ok(Task::Test(options))
         }
+        "docs" => match rest.first().map(String::as_str) {
+            None => Ok(Task::Docs),
+            Some("-h" | "--help") => Ok(Task::Help),
+            Some(other) => bail!("cargo xtask docs: unknown argument '{other}'\n\n{HELP}"),
+        },
         "piano-scale" => match rest.first().map(String::as_str) {
             None => Ok(Task::PianoScale),
             Some("-h" | "--help") => Ok(Task::Help),
@@ -131,6 +142,7 @@ fn main() -> ExitCode {
             }
             Task::Demo(options) => demo_cmd::demo(&options),
             Task::Test(options) => test_cmd::test(&options),
+            Task::Docs => docs_cmd::docs(),
             Task::PianoScale => piano_scale::run(),
             Task::NicePlug(args) => nice_plug_xtask::main_with_args("cargo xtask", args),
         }
@@ -160,6 +172,7 @@ mod tests {
         assert_eq!(parse(&args("bundle struck --release")).unwrap(), Task::NicePlug(args("bundle struck --release")));
         assert_eq!(parse(&args("known-packages")).unwrap(), Task::NicePlug(args("known-packages")));
         assert_eq!(parse(&args("piano-scale")).unwrap(), Task::PianoScale);
+        assert_eq!(parse(&args("docs")).unwrap(), Task::Docs);
     }
 
     #[test]
@@ -184,5 +197,6 @@ mod tests {
         assert!(parse(&args("test --bogus")).is_err());
         assert!(parse(&args("demo --release")).is_err());
         assert!(parse(&args("piano-scale --bogus")).is_err());
+        assert!(parse(&args("docs --bogus")).is_err());
     }
 }

@@ -24,7 +24,7 @@ const MIN_DELAY_MS: u32 = 20;
 
 /// The levels of coverage a frame's text is shaded in: few enough that a
 /// frame has at most 256 colours, which plotters' GIF backend stores exactly.
-const TEXT_COVERAGE_LEVELS: u8 = 12;
+const TEXT_COVERAGE_LEVELS: u8 = 6;
 
 /// The string's colour.
 const STRING: Colour = Colour(0, 0, 200);

@@ -30,6 +30,8 @@ pub struct Layout {
     /// Left of the plot: tick labels and the y label (at least; more when
     /// the tick labels are wide).
     pub y_label_area: u32,
+    /// How opaque the legend's white background is, from 0 to 1.
+    pub legend_opacity: f64,
 }
 
 impl Layout {
@@ -45,9 +47,11 @@ impl Layout {
         margin_bottom: 8,
         x_label_area: 62,
         y_label_area: 92,
+        legend_opacity: 0.88,
     };
 
-    /// For an animation about 640 by 360.
+    /// For an animation about 640 by 360, its legend opaque (what shows
+    /// through would add colours to the frame: see `Typeset`).
     pub const SMALL: Layout = Layout {
         title_font: 20,
         label_font: 16,
@@ -59,6 +63,7 @@ impl Layout {
         margin_bottom: 4,
         x_label_area: 46,
         y_label_area: 70,
+        legend_opacity: 1.0,
     };
 }
 
@@ -146,7 +151,7 @@ pub fn legend<'a, DB: DrawingBackend + 'a>(
         .margin(10)
         .legend_area_size(34)
         .label_font((FONT, layout.legend_font))
-        .background_style(WHITE.mix(0.88))
+        .background_style(WHITE.mix(layout.legend_opacity))
         .border_style(RGBColor(120, 120, 120))
         .draw()
         .map_err(fail)

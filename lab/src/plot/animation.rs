@@ -7,8 +7,10 @@
 use std::path::Path;
 
 use plotters::coord::Shift;
+use plotters::drawing::DrawingAreaErrorKind;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters_backend::DrawingErrorKind;
 
 use super::axis::{Axis, Scale, clip_polyline, plain};
 use super::frame::{self, Key, Layout, Paint, draw_markers, set_legend};
@@ -124,11 +126,14 @@ impl Animation {
             {
                 // plotters' GIF backend: each present() adds the frame drawn;
                 // the GIF is finished when the backend is dropped.
-                let backend = BitMapBackend::gif(temporary, self.size_px, delay_ms).map_err(fail)?;
+                let backend = BitMapBackend::gif(temporary, self.size_px, delay_ms).map_err(|e| gif_error(&e))?;
                 let root = Typeset::with_coverage_levels(backend, TEXT_COVERAGE_LEVELS).into_drawing_area();
                 for &i in &kept {
                     self.paint(&root, &plan, &self.frames[i])?;
-                    root.present().map_err(fail)?;
+                    root.present().map_err(|e| match e {
+                        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(e)) => gif_error(&e),
+                        other => other.to_string(),
+                    })?;
                 }
             }
             std::fs::File::open(temporary).and_then(|file| file.sync_all()).map_err(fail)
@@ -272,6 +277,19 @@ impl Animation {
     }
 }
 
+/// The errors of plotters' bitmap and GIF backend.
+type GifError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+/// A GIF backend's error as text: an I/O error as the system words it (plotters
+/// words it as Rust would debug it), so that a full disk or the file-size
+/// limit reads as such.
+fn gif_error(error: &GifError) -> String {
+    match error {
+        GifError::IOError(e) | GifError::GifEncodingError(gif::EncodingError::Io(e)) => e.to_string(),
+        other => other.to_string(),
+    }
+}
+
 /// "t = 1.234 ms", or in seconds from 1 s.
 fn time_label(time_s: f64) -> String {
     if time_s.abs() < 1.0 { format!("t = {:.3} ms", time_s * 1e3) } else { format!("t = {time_s:.3} s") }
@@ -412,6 +430,13 @@ mod tests {
         let error = strike(3).draw_gif(&missing).unwrap_err();
         assert!(matches!(error, PlotError::Write { .. }) && error.to_string().contains("strike.gif"), "{error}");
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "nothing written");
+    }
+
+    #[test]
+    fn a_write_error_of_the_gif_backend_reads_as_the_system_words_it() {
+        let full = std::io::Error::from_raw_os_error(27);
+        let words = full.to_string();
+        assert_eq!(gif_error(&GifError::GifEncodingError(gif::EncodingError::Io(full))), words);
     }
 
     #[test]

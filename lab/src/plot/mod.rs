@@ -13,8 +13,10 @@
 //! logarithmic, with their ticks, grid and labels (the `axis` module picks the
 //! ranges, labels the ticks and cuts curves at the plot's edge); markers are
 //! plotters' elements composed at a point; PNGs are encoded by plotters'
-//! bitmap backend and GIFs by its GIF backend (every frame whole, in a palette
-//! of its own).
+//! bitmap backend and GIFs by its GIF backend, which stores every frame whole
+//! in a palette of its own: exact for a frame of 256 colours or fewer, which
+//! an animation's frames keep to (its text shaded in six levels, its legend
+//! opaque), quantised otherwise.
 //!
 //! Drawing needs no display and no system fonts: text is set in a font
 //! embedded in the binary (egui's Ubuntu Light, from `epaint_default_fonts`),

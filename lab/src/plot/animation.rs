@@ -7,13 +7,13 @@
 use std::path::Path;
 
 use plotters::coord::Shift;
+use plotters::drawing::DrawingAreaErrorKind;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters_backend::DrawingErrorKind;
 
 use super::axis::{Axis, Scale, clip_polyline, plain};
-use super::frame::{self, Layout};
-use super::gif_file::GifFile;
-use super::glyph::{Glyph, Key, LegendKey, Paint};
+use super::frame::{self, Key, Layout, Paint, draw_markers, set_legend};
 use super::typeset::Typeset;
 use super::{Colour, Corner, FONT, MarkerShape, PlotError, ensure_fonts, fail, write_atomically};
 
@@ -23,6 +23,10 @@ pub const MAX_GIF_FRAMES: usize = 150;
 
 /// The shortest frame delay written: viewers show faster GIFs slowly.
 const MIN_DELAY_MS: u32 = 20;
+
+/// The levels of coverage a frame's text is shaded in: few enough that a
+/// frame has at most 256 colours, which plotters' GIF backend stores exactly.
+const TEXT_COVERAGE_LEVELS: u8 = 6;
 
 /// The string's colour.
 const STRING: Colour = Colour(0, 0, 200);
@@ -113,13 +117,26 @@ impl Animation {
     pub fn draw_gif(&self, gif: &Path) -> Result<(), PlotError> {
         let plan = self.plan().map_err(|reason| PlotError::bad_data(gif, reason))?;
         let (kept, delay_ms) = self.kept_frames();
+        let (width, height) = self.size_px;
+        if u16::try_from(width).is_err() || u16::try_from(height).is_err() {
+            return Err(PlotError::bad_data(gif, format!("{width} x {height} is too big for a GIF")));
+        }
         write_atomically(gif, "gif", |temporary| {
             ensure_fonts()?;
-            let mut file = GifFile::create(temporary, self.size_px)?;
-            for &i in &kept {
-                file.add_frame(&self.render(&plan, &self.frames[i])?, delay_ms)?;
+            {
+                // plotters' GIF backend: each present() adds the frame drawn;
+                // the GIF is finished when the backend is dropped.
+                let backend = BitMapBackend::gif(temporary, self.size_px, delay_ms).map_err(|e| gif_error(&e))?;
+                let root = Typeset::with_coverage_levels(backend, TEXT_COVERAGE_LEVELS).into_drawing_area();
+                for &i in &kept {
+                    self.paint(&root, &plan, &self.frames[i])?;
+                    root.present().map_err(|e| match e {
+                        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(e)) => gif_error(&e),
+                        other => other.to_string(),
+                    })?;
+                }
             }
-            file.finish()
+            std::fs::File::open(temporary).and_then(|file| file.sync_all()).map_err(fail)
         })
     }
 
@@ -132,7 +149,8 @@ impl Animation {
         };
         write_atomically(png, "png", |temporary| {
             ensure_fonts()?;
-            let root = Typeset::new(BitMapBackend::new(temporary, self.size_px)).into_drawing_area();
+            let root = Typeset::with_coverage_levels(BitMapBackend::new(temporary, self.size_px), TEXT_COVERAGE_LEVELS)
+                .into_drawing_area();
             self.paint(&root, &plan, frame)?;
             root.present().map_err(fail)
         })
@@ -222,13 +240,9 @@ impl Animation {
             let Some((a, b)) = point else { continue };
             let at = (a, b * MM_PER_M);
             let inside = x.contains(at.0) && y.contains(at.1);
-            let glyph = Glyph { at, shape: MarkerShape::Star, colour, radius_px, paint: Paint::Solid };
-            let key = Key::Marker(MarkerShape::Star, colour, Paint::Solid);
-            chart.draw_series(inside.then_some(glyph)).map_err(fail)?.label(label).legend(move |at| LegendKey {
-                at,
-                key,
-                radius_px: 7,
-            });
+            let points = if inside { vec![at] } else { Vec::new() };
+            let drawn = draw_markers(&mut chart, points, (MarkerShape::Star, colour, radius_px, Paint::Solid))?;
+            set_legend(drawn, label, Key::Marker(MarkerShape::Star, colour, Paint::Solid), 7);
             labelled = true;
         }
         if labelled {
@@ -247,16 +261,32 @@ impl Animation {
         body.draw_text(&note, &grey, at).map_err(fail)
     }
 
-    /// `frame` drawn into an RGB buffer of `size_px`.
+    /// `frame` drawn into an RGB buffer of `size_px` (for tests).
+    #[cfg(test)]
     fn render(&self, plan: &Plan, frame: &AnimationFrame) -> Result<Vec<u8>, String> {
         let (w, h) = self.size_px;
         let mut rgb = vec![0u8; w as usize * h as usize * 3];
         {
-            let root = Typeset::new(BitMapBackend::with_buffer(&mut rgb, self.size_px)).into_drawing_area();
+            let root =
+                Typeset::with_coverage_levels(BitMapBackend::with_buffer(&mut rgb, self.size_px), TEXT_COVERAGE_LEVELS)
+                    .into_drawing_area();
             self.paint(&root, plan, frame)?;
             root.present().map_err(fail)?;
         }
         Ok(rgb)
+    }
+}
+
+/// The errors of plotters' bitmap and GIF backend.
+type GifError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+/// A GIF backend's error as text: an I/O error as the system words it (plotters
+/// words it as Rust would debug it), so that a full disk or the file-size
+/// limit reads as such.
+fn gif_error(error: &GifError) -> String {
+    match error {
+        GifError::IOError(e) | GifError::GifEncodingError(gif::EncodingError::Io(e)) => e.to_string(),
+        other => other.to_string(),
     }
 }
 
@@ -276,9 +306,30 @@ fn two_figures(value: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::gif_file::tests::decode;
-    use super::super::test_support::{has_colour, png_size, samples_dir};
+    use super::super::test_support::{distinct_colours, has_colour, png_size, samples_dir};
     use super::*;
+
+    /// Every frame of the GIF at `path` as the viewer shows it (RGB), with
+    /// each frame's delay in milliseconds.
+    fn decode(path: &Path) -> Vec<(Vec<u8>, u32)> {
+        let mut options = gif::DecodeOptions::new();
+        options.set_color_output(gif::ColorOutput::RGBA);
+        let mut decoder = options.read_info(std::fs::File::open(path).unwrap()).unwrap();
+        let (width, height) = (usize::from(decoder.width()), usize::from(decoder.height()));
+        let mut canvas = vec![255u8; width * height * 3];
+        let mut frames = Vec::new();
+        while let Some(frame) = decoder.read_next_frame().unwrap() {
+            let (left, top, w) = (usize::from(frame.left), usize::from(frame.top), usize::from(frame.width));
+            for (k, pixel) in frame.buffer.chunks_exact(4).enumerate() {
+                if pixel[3] != 0 {
+                    let (x, y) = (left + k % w, top + k / w);
+                    canvas[(y * width + x) * 3..][..3].copy_from_slice(&pixel[..3]);
+                }
+            }
+            frames.push((canvas.clone(), u32::from(frame.delay) * 10));
+        }
+        frames
+    }
 
     /// Like Fig 2: a 0.5 m string struck at 2/5 of its length, two triangular
     /// pulses running outwards and the hammer pushing in then thrown off.
@@ -318,6 +369,8 @@ mod tests {
         ensure_fonts().unwrap();
         let rgb = anim.render(&anim.plan().unwrap(), &anim.frames[30]).unwrap();
         assert!(has_colour(&rgb, STRING) && has_colour(&rgb, HAMMER) && has_colour(&rgb, STRUCK));
+        // Few enough colours for plotters' GIF backend to keep them exact.
+        assert!(distinct_colours(&rgb) <= 256, "{} colours", distinct_colours(&rgb));
         let dir = tempfile::tempdir().unwrap();
         let gif = dir.path().join("strike.gif");
         anim.draw_gif(&gif).unwrap();
@@ -326,8 +379,9 @@ mod tests {
         assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 640);
         assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 360);
         assert_eq!(*bytes.last().unwrap(), 0x3b, "the GIF is finished");
-        // Small: each frame after the first holds only what moved.
-        assert!(bytes.len() < 400_000, "{} bytes", bytes.len());
+        // Each frame is stored whole but compressed: under a tenth of its
+        // 640 x 360 palette indices (about 18 kB a frame here).
+        assert!(bytes.len() < 60 * 640 * 360 / 10, "{} bytes", bytes.len());
         let shown = decode(&gif);
         assert_eq!(shown.len(), 60);
         assert!(shown.iter().all(|(_, delay_ms)| *delay_ms == 50));
@@ -376,6 +430,13 @@ mod tests {
         let error = strike(3).draw_gif(&missing).unwrap_err();
         assert!(matches!(error, PlotError::Write { .. }) && error.to_string().contains("strike.gif"), "{error}");
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "nothing written");
+    }
+
+    #[test]
+    fn a_write_error_of_the_gif_backend_reads_as_the_system_words_it() {
+        let full = std::io::Error::from_raw_os_error(27);
+        let words = full.to_string();
+        assert_eq!(gif_error(&GifError::GifEncodingError(gif::EncodingError::Io(full))), words);
     }
 
     #[test]

@@ -1,13 +1,23 @@
-//! Axes: how data values map onto a chart's coordinate, where the ticks go
-//! and how they are labelled.
+//! Axes: the extent each axis of a chart covers, plotters' linear or
+//! logarithmic coordinate over it (whose key points are the ticks and grid
+//! lines), the tick labels, and curves cut at the plot's edge.
 //!
-//! Charts are drawn in "axis space": the value itself on a linear axis, its
-//! base-10 logarithm on a logarithmic one. Ticks are chosen here rather than by
-//! plotters, so logarithmic axes get labelled decades with light lines at 2-9.
+//! Ranges are worked out in "axis space" (the value itself on a linear axis,
+//! its base-10 logarithm on a logarithmic one) and handed to plotters in
+//! values. plotters places the ticks: round numbers on a linear axis; on a
+//! logarithmic one the powers of ten, with light lines at 2-9 times them, and
+//! when an axis spans too few powers of ten to label, 1, 2 and 5 (or every
+//! digit) times them. plotters draws a line wherever its ends map to, over the
+//! axes too, so curves are cut at the plot's edge here.
 
 use std::ops::Range;
 
-use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::coord::ranged1d::{BoldPoints, DefaultFormatting, KeyPointHint, LightPoints, Ranged};
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::{IntoLogRange, LogCoord};
+
+/// How many tick labels an axis has at most.
+pub const LABELS: usize = 8;
 
 /// How an axis maps values onto its length.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -28,6 +38,14 @@ impl Scale {
             Scale::Linear if value.is_finite() => Some(value),
             Scale::Log if value.is_finite() && value > 0.0 => Some(value.log10()),
             _ => None,
+        }
+    }
+
+    /// The value at axis-space `coordinate`.
+    pub(crate) fn to_value(self, coordinate: f64) -> f64 {
+        match self {
+            Scale::Linear => coordinate,
+            Scale::Log => 10f64.powf(coordinate),
         }
     }
 }
@@ -102,154 +120,133 @@ impl Axis {
         self.scale.to_axis(value)
     }
 
+    /// The value at axis-space `coordinate`.
+    pub fn value(&self, coordinate: f64) -> f64 {
+        self.scale.to_value(coordinate)
+    }
+
     /// Whether axis-space `coordinate` lies within the extent.
     pub fn contains(&self, coordinate: f64) -> bool {
         let slack = 1e-9 * (self.high - self.low);
         coordinate >= self.low - slack && coordinate <= self.high + slack
     }
 
-    /// The coordinate spec for plotters: the extent with its labelled (bold)
-    /// and light tick positions.
-    pub fn spec(&self) -> Ticked {
-        Ticked { low: self.low, high: self.high, ticks: self.ticks() }
+    /// plotters' coordinate for the axis, in values.
+    pub fn coord(&self) -> Coord {
+        let (low, high) = (self.value(self.low), self.value(self.high));
+        match self.scale {
+            Scale::Linear => Coord::Linear((low..high).into()),
+            Scale::Log => {
+                // plotters' logarithmic key points start at the first power of
+                // ten in the range: widened down to a whole decade, the points
+                // below `low` are dropped again. (Widened by a hair at both
+                // ends too, so that rounding keeps the powers of ten at them.)
+                let from = 10f64.powf(self.low.floor()) * (1.0 - 1e-9);
+                Coord::Log {
+                    log: (low..high).log_scale().into(),
+                    ticks: (from..high * (1.0 + 1e-9)).log_scale().into(),
+                    inside: (low, high),
+                }
+            }
+        }
     }
 
-    /// The label of the tick at axis-space `coordinate`.
-    pub fn label(&self, coordinate: f64) -> String {
-        match self.scale {
+    /// The labelled values: plotters' key points for the bold grid lines.
+    pub fn ticks(&self) -> Vec<f64> {
+        self.coord().key_points(BoldPoints(LABELS))
+    }
+
+    /// The tick labels' text, for plotters' mesh: round numbers with as many
+    /// decimals as the step between ticks needs on a linear axis (the
+    /// `2.5e-6` form for very large or small values), and values written
+    /// plainly on a logarithmic one.
+    pub fn labeller(&self) -> impl Fn(&f64) -> String + use<> {
+        let (scale, low, high) = (self.scale, self.low, self.high);
+        let ticks = self.ticks();
+        let step = ticks.windows(2).map(|w| w[1] - w[0]).next().unwrap_or(high - low);
+        move |&value| match scale {
             Scale::Linear => {
-                let step = linear_step(self.high - self.low);
-                let value = if coordinate.abs() < 1e-9 * step { 0.0 } else { coordinate };
-                let largest = self.low.abs().max(self.high.abs());
-                if largest >= 1e6 || step < 1e-4 {
+                let value = if value.abs() < 1e-9 * step { 0.0 } else { value };
+                if low.abs().max(high.abs()) >= 1e6 || step < 1e-4 {
                     scientific(value)
                 } else {
                     let decimals = (-(step.log10() + 1e-9).floor()).max(0.0) as usize;
                     format!("{value:.decimals$}")
                 }
             }
-            Scale::Log => plain(10f64.powf(coordinate)),
-        }
-    }
-
-    /// Where the ticks go, in axis space.
-    pub fn ticks(&self) -> Ticks {
-        match self.scale {
-            Scale::Linear => linear_ticks(self.low, self.high),
-            Scale::Log => log_ticks(self.low, self.high),
+            Scale::Log => plain(value),
         }
     }
 }
 
-/// A plotters coordinate spec in axis space whose ticks are given rather
-/// than chosen by plotters.
-pub struct Ticked {
-    pub low: f64,
-    pub high: f64,
-    pub ticks: Ticks,
+/// plotters' coordinate for an [`Axis`], linear or logarithmic, in values.
+pub enum Coord {
+    /// plotters' linear coordinate.
+    Linear(RangedCoordf64),
+    /// plotters' logarithmic coordinate over the axis (`log`), and over a
+    /// range reaching down to a power of ten whose key points between the
+    /// values `inside` are the ticks (`ticks`).
+    Log { log: LogCoord<f64>, ticks: LogCoord<f64>, inside: (f64, f64) },
 }
 
-impl Ranged for Ticked {
-    // Tick labels come from Axis::label through the mesh's formatters;
-    // plotters insists on a default formatting all the same.
+/// The key points of a logarithmic axis from `low` to `high`: plotters'
+/// points of `log` (which reaches down to a power of ten) inside that range.
+/// For the labels, when there are fewer than three powers of ten, 1, 2 and 5
+/// times them, or every digit, from plotters' light points (1-9 times each
+/// power); within a decade, plotters' linear ticks of the value.
+fn log_key_points(log: &LogCoord<f64>, (low, high): (f64, f64), hint: impl KeyPointHint) -> Vec<f64> {
+    // plotters gives each power of ten twice (as a point and as ten times
+    // the one before) when it gives light points.
+    let inside = |points: Vec<f64>| {
+        let mut kept: Vec<f64> =
+            points.into_iter().filter(|v| *v >= low * (1.0 - 1e-9) && *v <= high * (1.0 + 1e-9)).collect();
+        kept.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs());
+        kept
+    };
+    if hint.weight().allow_light_points() {
+        return inside(log.key_points(hint));
+    }
+    let labels = hint.max_num_points();
+    let powers = inside(log.key_points(hint));
+    if powers.len() >= 3 {
+        return powers;
+    }
+    let decades = (high / low).log10().ceil() as usize + 1;
+    let digits = inside(log.key_points(LightPoints::new(labels, 10 * decades + 10)));
+    let mantissa = |v: &f64| (v / 10f64.powf((v.log10() + 1e-9).floor())).round();
+    let one_two_five: Vec<f64> = digits.iter().copied().filter(|v| [1.0, 2.0, 5.0].contains(&mantissa(v))).collect();
+    if one_two_five.len() >= 3 {
+        one_two_five
+    } else if digits.len() >= 2 {
+        digits
+    } else {
+        RangedCoordf64::from(low..high).key_points(labels)
+    }
+}
+
+impl Ranged for Coord {
     type FormatOption = DefaultFormatting;
     type ValueType = f64;
 
     fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        let fraction = (value - self.low) / (self.high - self.low);
-        let length = f64::from(limit.1 - limit.0);
-        // As plotters maps its own f64 ranges.
-        if length >= 0.0 {
-            limit.0 + (length * fraction + 1e-3).floor() as i32
-        } else {
-            limit.0 + (length * fraction - 1e-3).ceil() as i32
+        match self {
+            Coord::Linear(linear) => linear.map(value, limit),
+            Coord::Log { log, .. } => log.map(value, limit),
         }
     }
 
     fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        if hint.weight().allow_light_points() { self.ticks.minor.clone() } else { self.ticks.major.clone() }
+        match self {
+            Coord::Linear(linear) => linear.key_points(hint),
+            Coord::Log { ticks, inside, .. } => log_key_points(ticks, *inside, hint),
+        }
     }
 
     fn range(&self) -> Range<f64> {
-        self.low..self.high
-    }
-}
-
-/// Tick positions in axis space.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Ticks {
-    /// Labelled, with a grid line.
-    pub major: Vec<f64>,
-    /// A lighter grid line only.
-    pub minor: Vec<f64>,
-}
-
-/// The labelled-tick spacing for a linear span: 1, 2 or 5 times a power of
-/// ten, giving about six ticks.
-fn linear_step(span: f64) -> f64 {
-    let raw = span / 6.0;
-    let power = 10f64.powf(raw.log10().floor());
-    let mantissa = raw / power;
-    let nice = if mantissa < 1.5 {
-        1.0
-    } else if mantissa < 3.5 {
-        2.0
-    } else if mantissa < 7.5 {
-        5.0
-    } else {
-        10.0
-    };
-    nice * power
-}
-
-/// Multiples of `step` within `low..=high`.
-fn multiples(low: f64, high: f64, step: f64) -> Vec<f64> {
-    let first = (low / step - 1e-9).ceil() as i64;
-    let last = (high / step + 1e-9).floor() as i64;
-    (first..=last).map(|i| i as f64 * step).collect()
-}
-
-fn linear_ticks(low: f64, high: f64) -> Ticks {
-    let step = linear_step(high - low);
-    let mantissa = (step / 10f64.powf(step.log10().floor())).round();
-    let minor_step = if mantissa == 2.0 { step / 4.0 } else { step / 5.0 };
-    Ticks { major: multiples(low, high, step), minor: multiples(low, high, minor_step) }
-}
-
-fn log_ticks(low: f64, high: f64) -> Ticks {
-    let first = (low - 1e-9).ceil() as i32;
-    let last = (high + 1e-9).floor() as i32;
-    let inside = |c: &f64| *c >= low - 1e-9 && *c <= high + 1e-9;
-    let decades = (low.floor() as i32)..=(high.ceil() as i32);
-    let within_decades = |factors: &[f64]| -> Vec<f64> {
-        decades.clone().flat_map(|d| factors.iter().map(move |f| d as f64 + f.log10())).filter(|c| inside(c)).collect()
-    };
-    let count = last - first + 1;
-    if count >= 2 && high - low > 2.5 {
-        // Label the decades, every few when there are many of them.
-        let stride = (count + 7) / 8;
-        let major: Vec<f64> = (first..=last).filter(|d| (d - first) % stride == 0).map(f64::from).collect();
-        let minor = if count <= 7 {
-            within_decades(&[2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
-        } else {
-            (first..=last).map(f64::from).filter(|d| !major.contains(d)).collect()
-        };
-        Ticks { major, minor }
-    } else {
-        // Two and a half decades or less: label 1, 2 and 5 (or every digit)
-        // times the powers of ten.
-        let mut major = within_decades(&[1.0, 2.0, 5.0]);
-        if major.len() < 3 {
-            major = within_decades(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+        match self {
+            Coord::Linear(linear) => linear.range(),
+            Coord::Log { inside, .. } => inside.0..inside.1,
         }
-        if major.len() < 2 {
-            // A narrow span inside one decade: linear ticks of the value.
-            let (a, b) = (10f64.powf(low), 10f64.powf(high));
-            let step = linear_step(b - a);
-            major = multiples(a, b, step).into_iter().filter(|v| *v > 0.0).map(f64::log10).collect();
-        }
-        let minor = within_decades(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
-        Ticks { major, minor }
     }
 }
 
@@ -349,51 +346,66 @@ pub fn clip_polyline(points: &[Option<(f64, f64)>], x: &Range<f64>, y: &Range<f6
 
 #[cfg(test)]
 mod tests {
+    use plotters::coord::ranged1d::LightPoints;
+
     use super::*;
+
+    /// The labels plotters' mesh sets on `axis`.
+    fn labels(axis: &Axis) -> Vec<String> {
+        let label = axis.labeller();
+        axis.ticks().iter().map(label).collect()
+    }
+
+    /// The light grid lines plotters' mesh draws on `axis` (10 a label).
+    fn light_lines(axis: &Axis) -> Vec<f64> {
+        axis.coord().key_points(LightPoints::new(LABELS, LABELS * 10))
+    }
 
     #[test]
     fn log_axis_over_six_decades_labels_each_decade_with_light_lines_between() {
         let axis = Axis::fit(Scale::Log, None, [1e-3, 0.0, -5.0, 1e3], false, "x").unwrap();
         assert!((axis.low + 3.0).abs() < 1e-12 && (axis.high - 3.0).abs() < 1e-12);
-        let ticks = axis.ticks();
-        assert_eq!(ticks.major, vec![-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0]);
-        assert_eq!(ticks.minor.len(), 6 * 8);
-        let labels: Vec<String> = ticks.major.iter().map(|&c| axis.label(c)).collect();
-        assert_eq!(labels, ["0.001", "0.01", "0.1", "1", "10", "100", "1000"]);
+        assert_eq!(labels(&axis), ["0.001", "0.01", "0.1", "1", "10", "100", "1000"]);
+        // 2-9 times each power of ten, and the powers themselves.
+        assert_eq!(light_lines(&axis).len(), 6 * 9 + 1);
     }
 
     #[test]
     fn log_axis_over_many_decades_labels_every_other() {
         let axis = Axis::exact(Scale::Log, (1e-6, 1e6), "x").unwrap();
-        let ticks = axis.ticks();
-        assert_eq!(ticks.major.len(), 7);
-        assert_eq!(axis.label(-6.0), "1e-6");
-        assert_eq!(axis.label(6.0), "1e6");
+        let labels = labels(&axis);
+        assert_eq!(labels.len(), 7);
+        assert_eq!((labels[0].as_str(), labels[6].as_str()), ("1e-6", "1e6"));
     }
 
     #[test]
     fn log_axis_over_two_decades_labels_one_two_five() {
         let axis = Axis::exact(Scale::Log, (50.0, 5000.0), "x").unwrap();
-        let labels: Vec<String> = axis.ticks().major.iter().map(|&c| axis.label(c)).collect();
-        assert_eq!(labels, ["50", "100", "200", "500", "1000", "2000", "5000"]);
+        assert_eq!(labels(&axis), ["50", "100", "200", "500", "1000", "2000", "5000"]);
     }
 
     #[test]
     fn log_axis_within_a_decade_still_has_labels() {
         let axis = Axis::exact(Scale::Log, (2.0, 8.0), "x").unwrap();
-        let labels: Vec<String> = axis.ticks().major.iter().map(|&c| axis.label(c)).collect();
-        assert_eq!(labels, ["2", "3", "4", "5", "6", "7", "8"]);
+        assert_eq!(labels(&axis), ["2", "3", "4", "5", "6", "7", "8"]);
         let narrow = Axis::exact(Scale::Log, (400.0, 440.0), "x").unwrap();
-        assert!(narrow.ticks().major.len() >= 3);
+        assert!(narrow.ticks().len() >= 3, "{:?}", narrow.ticks());
+    }
+
+    #[test]
+    fn a_log_axis_maps_its_ends_to_the_plots_edges() {
+        let coord = Axis::exact(Scale::Log, (50.0, 5000.0), "x").unwrap().coord();
+        assert_eq!(coord.map(&50.0, (0, 400)), 0);
+        assert_eq!(coord.map(&500.0, (0, 400)), 200);
+        assert_eq!(coord.map(&5000.0, (0, 400)), 400);
     }
 
     #[test]
     fn linear_ticks_are_round_numbers() {
         let axis = Axis::exact(Scale::Linear, (-0.3, 2.7), "y").unwrap();
-        let labels: Vec<String> = axis.ticks().major.iter().map(|&c| axis.label(c)).collect();
-        assert_eq!(labels, ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
+        assert_eq!(labels(&axis), ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
         let small = Axis::exact(Scale::Linear, (0.0, 3e-6), "y").unwrap();
-        assert_eq!(small.label(small.ticks().major[1]), "5e-7");
+        assert_eq!(labels(&small)[1], "5e-7");
     }
 
     #[test]

@@ -11,9 +11,8 @@ use plotters::prelude::*;
 use plotters::style::FontTransform;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::axis::{Axis, Scale, Ticked, Ticks};
-use super::frame::{self, Layout};
-use super::glyph::{Glyph, Key, LegendKey, Paint};
+use super::axis::{Axis, LABELS, Scale};
+use super::frame::{self, Key, Layout, Paint, draw_markers, set_legend};
 use super::typeset::Typeset;
 use super::{CHART_SIZE_PX, Colour, Corner, FONT, MarkerShape, PlotError, ensure_fonts, fail, write_atomically};
 
@@ -262,7 +261,10 @@ impl Heatmap {
         let nx = self.x.len();
         let cells = self.values.iter().enumerate().map(|(i, &value)| {
             let (ix, iy) = (i % nx, i / nx);
-            let corners = [(plan.x_edges[ix], plan.y_edges[iy]), (plan.x_edges[ix + 1], plan.y_edges[iy + 1])];
+            let corners = [
+                (x.value(plan.x_edges[ix]), y.value(plan.y_edges[iy])),
+                (x.value(plan.x_edges[ix + 1]), y.value(plan.y_edges[iy + 1])),
+            ];
             Rectangle::new(corners, plan.scale.colour(value).rgb().filled())
         });
         chart.draw_series(cells).map_err(fail)?;
@@ -281,24 +283,20 @@ impl Heatmap {
         for &(label, shape, colour) in &groups {
             let members =
                 self.markers.iter().filter(|m| (m.label.as_str(), m.shape, m.colour) == (label, shape, colour));
-            let glyphs = members
+            let points = members
                 .filter_map(|m| Some((x.place(m.x)?, y.place(m.y)?)))
                 .filter(|&(a, b)| x.contains(a) && y.contains(b))
-                .map(|at| Glyph { at, shape, colour, radius_px, paint: Paint::Solid });
-            let drawn = chart.draw_series(glyphs).map_err(fail)?;
+                .map(|(a, b)| (x.value(a), y.value(b)))
+                .collect();
+            let drawn = draw_markers(&mut chart, points, (shape, colour, radius_px, Paint::Solid))?;
             if !label.is_empty() {
-                let key = Key::Marker(shape, colour, Paint::Solid);
-                drawn.label(label).legend(move |at| LegendKey { at, key, radius_px });
+                set_legend(drawn, label, Key::Marker(shape, colour, Paint::Solid), radius_px);
             }
         }
         let no_data = self.values.iter().any(|v| !v.is_finite());
         if no_data {
-            let key = Key::Block(NO_DATA);
-            chart
-                .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
-                .map_err(fail)?
-                .label("no data")
-                .legend(move |at| LegendKey { at, key, radius_px });
+            let series = chart.draw_series(std::iter::empty::<Rectangle<(f64, f64)>>()).map_err(fail)?;
+            set_legend(series, "no data", Key::Block(NO_DATA), radius_px);
         }
         if no_data || groups.iter().any(|g| !g.0.is_empty()) {
             frame::legend(&mut chart, self.legend, &layout)?;
@@ -314,23 +312,18 @@ impl Heatmap {
         scale: &ColourScale,
         layout: &Layout,
     ) -> Result<DrawingArea<DB, Shift>, String> {
-        let (axis, labels): (Axis, Option<(i64, i64)>) = match *scale {
-            ColourScale::Continuous { low, high } => (Axis { scale: Scale::Linear, low, high }, None),
+        // The counts' ticks are plotters' linear ones at most one a count,
+        // which over the blocks' edges are the whole numbers.
+        let (axis, labels, tick_count): (Axis, Option<(i64, i64)>, usize) = match *scale {
+            ColourScale::Continuous { low, high } => (Axis { scale: Scale::Linear, low, high }, None, LABELS),
             ColourScale::Counts { first, last } => {
                 let axis = Axis { scale: Scale::Linear, low: first as f64 - 0.5, high: last as f64 + 0.5 };
-                (axis, Some((first, last)))
+                (axis, Some((first, last)), (last - first + 1) as usize)
             }
         };
-        let y_spec = match labels {
-            None => axis.spec(),
-            Some((first, last)) => Ticked {
-                low: axis.low,
-                high: axis.high,
-                ticks: Ticks { major: (first..=last).map(|c| c as f64).collect(), minor: Vec::new() },
-            },
-        };
+        let continuous = axis.labeller();
         let tick = |c: &f64| match labels {
-            None => axis.label(*c),
+            None => continuous(c),
             Some((_, last)) if c.round() as i64 == last && last >= MANY_FROM => format!("{MANY_FROM}+"),
             Some(_) => format!("{}", c.round() as i64),
         };
@@ -338,8 +331,8 @@ impl Heatmap {
         // upwards, like the y axis's) to the right.
         let tick_style = TextStyle::from((FONT, layout.tick_font).into_font());
         let mut widest_px = 0;
-        for t in &y_spec.ticks.major {
-            widest_px = widest_px.max(area.estimate_text_size(&tick(t), &tick_style).map_err(fail)?.0);
+        for t in axis.coord().key_points(tick_count) {
+            widest_px = widest_px.max(area.estimate_text_size(&tick(&t), &tick_style).map_err(fail)?.0);
         }
         let (bar_margin_left, bar_px, margin_right) = (14, 22, 6);
         let tick_area_px = widest_px + 14;
@@ -354,11 +347,12 @@ impl Heatmap {
             .margin_right(margin_right + label_px)
             .x_label_area_size(layout.x_label_area)
             .right_y_label_area_size(tick_area_px)
-            .build_cartesian_2d(Ticked { low: 0.0, high: 1.0, ticks: Ticks::default() }, y_spec)
+            .build_cartesian_2d(0.0..1.0, axis.coord())
             .map_err(fail)?;
         bar.configure_mesh()
             .disable_mesh()
             .disable_x_axis()
+            .y_labels(tick_count)
             .y_label_formatter(&tick)
             .label_style((FONT, layout.tick_font))
             .axis_desc_style((FONT, layout.label_font))

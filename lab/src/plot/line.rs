@@ -9,8 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::axis::{Axis, Scale, clip_polyline};
-use super::frame::{self, Layout};
-use super::glyph::{Glyph, Key, LegendKey, Paint};
+use super::frame::{self, Key, Layout, Paint, draw_markers, set_legend};
 use super::typeset::Typeset;
 use super::{CHART_SIZE_PX, Colour, Corner, MarkerShape, PlotError, csv_field, ensure_fonts, fail, write_atomically};
 
@@ -167,18 +166,20 @@ impl LinePlot {
             if line {
                 let style = colour.rgb().stroke_width(2);
                 let runs = clip_polyline(&placed, &x_extent, &y_extent);
-                let drawn =
-                    chart.draw_series(runs.into_iter().map(|run| PathElement::new(run, style))).map_err(fail)?;
+                let paths = runs.into_iter().map(|run| {
+                    PathElement::new(run.into_iter().map(|(a, b)| (x.value(a), y.value(b))).collect::<Vec<_>>(), style)
+                });
+                let drawn = chart.draw_series(paths).map_err(fail)?;
                 if !label.is_empty() {
-                    drawn.label(label).legend(move |at| LegendKey { at, key, radius_px });
+                    set_legend(drawn, label, key, radius_px);
                 }
             }
             if let Some(shape) = shape {
                 let inside = placed.iter().flatten().filter(|(a, b)| x.contains(*a) && y.contains(*b));
-                let glyphs = inside.map(|&at| Glyph { at, shape, colour, radius_px, paint: Paint::Outline });
-                let drawn = chart.draw_series(glyphs).map_err(fail)?;
+                let points = inside.map(|&(a, b)| (x.value(a), y.value(b))).collect();
+                let drawn = draw_markers(&mut chart, points, (shape, colour, radius_px, Paint::Outline))?;
                 if !line && !label.is_empty() {
-                    drawn.label(label).legend(move |at| LegendKey { at, key, radius_px });
+                    set_legend(drawn, label, key, radius_px);
                 }
             }
         }

@@ -9,12 +9,20 @@
 //! struck point, like Figs 2 and 23-25). Each can also write the numbers it
 //! draws as CSV.
 //!
+//! The charts are plotters' own: its mesh draws the axes, linear or
+//! logarithmic, with their ticks, grid and labels (the `axis` module picks the
+//! ranges, labels the ticks and cuts curves at the plot's edge); markers are
+//! plotters' elements composed at a point; PNGs are encoded by plotters'
+//! bitmap backend and GIFs by its GIF backend, which stores every frame whole
+//! in a palette of its own: exact for a frame of 256 colours or fewer, which
+//! an animation's frames keep to (its text shaded in six levels, its legend
+//! opaque), quantised otherwise.
+//!
 //! Drawing needs no display and no system fonts: text is set in a font
 //! embedded in the binary (egui's Ubuntu Light, from `epaint_default_fonts`),
 //! registered once with plotters' `ab_glyph` support (which plotters uses to
 //! measure text) and drawn by the `typeset` module (which places glyphs better than
-//! plotters does). PNGs are encoded by plotters; GIFs by the `gif_file` module, which
-//! stores each frame as what changed since the last. Every file is written
+//! plotters does). Every file is written
 //! under a temporary name beside its destination and renamed into place, so
 //! a failure leaves nothing half-written and an existing file as it was. The
 //! destination's folder must exist.
@@ -22,8 +30,6 @@
 mod animation;
 mod axis;
 mod frame;
-mod gif_file;
-mod glyph;
 mod heatmap;
 mod line;
 mod typeset;

@@ -64,12 +64,22 @@ impl BackendStyle for Thin {
 /// A backend whose text and thick lines are drawn as described above.
 pub struct Typeset<B> {
     inner: B,
+    /// How many levels of coverage text's edges are shaded in; None for all.
+    coverage_levels: Option<u8>,
 }
 
 impl<B: DrawingBackend> Typeset<B> {
     /// Wrap `inner`.
     pub fn new(inner: B) -> Self {
-        Self { inner }
+        Self { inner, coverage_levels: None }
+    }
+
+    /// Wrap `inner`, shading text's edges in `levels` levels of coverage
+    /// only: few enough colours for a frame that plotters' GIF backend then
+    /// stores in an exact palette (it quantises a frame of more than 256
+    /// colours, which can turn a small red star purple).
+    pub fn with_coverage_levels(inner: B, levels: u8) -> Self {
+        Self { inner, coverage_levels: Some(levels.max(1)) }
     }
 }
 
@@ -217,6 +227,13 @@ impl<B: DrawingBackend> DrawingBackend for Typeset<B> {
         }
         let (w, h) = self.get_size();
         for (x, y, coverage) in pixels {
+            let coverage = match self.coverage_levels {
+                Some(levels) => (coverage * f32::from(levels)).round() / f32::from(levels),
+                None => coverage,
+            };
+            if coverage <= 0.0 {
+                continue;
+            }
             let (x, y) = transform.transform(x, y);
             let (x, y) = (pos.0 + x, pos.1 + y);
             if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {

@@ -66,6 +66,20 @@ fn a_bad_reference_or_instrument_is_refused() {
     refused(&["--instrument", "harpsichord", "--notes", "A0,C4"], "outside the harpsichord's keys");
 }
 
+#[test]
+fn a_doc_without_its_table_or_for_another_run_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let doc = dir.path().join("validation.md");
+    std::fs::write(&doc, "# How it is checked\n\nNo table here.\n").unwrap();
+    let path = doc.to_str().unwrap();
+    refused(&["--doc", path], "has no line `<!-- table: real grand -->`");
+    refused(&["--doc", path, "--no-yardsticks"], "--doc");
+    refused(&["--doc", path, "--instrument", "harpsichord"], "--doc");
+    refused(&["--doc", dir.path().join("missing.md").to_str().unwrap()], "missing.md");
+    // Nothing written over it.
+    assert_eq!(std::fs::read_to_string(&doc).unwrap(), "# How it is checked\n\nNo table here.\n");
+}
+
 /// Against FluidR3's recorded dulcimer (General MIDI program 15), one note in
 /// one layer: the table is headed by the reference and Struck's dulcimer has
 /// a figure on every feature one note can give.

@@ -81,6 +81,12 @@ pub struct CompareArgs {
     /// Write one row per note, layer and source as CSV.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+    /// Write the medians table into this Markdown file (docs/validation.md)
+    /// between its lines `<!-- table: real grand -->` and `<!-- /table:
+    /// real grand -->`, the rest of it as it was. Only for the piano against
+    /// the recordings, with the yardsticks.
+    #[arg(long, value_name = "FILE")]
+    pub doc: Option<PathBuf>,
     /// Notes rendered and measured at once (1 to 64).
     #[arg(long, value_name = "N", default_value_t = 1, allow_negative_numbers = true)]
     pub jobs: i64,
@@ -191,7 +197,27 @@ fn plan(args: &CompareArgs) -> Result<Plan, Failure> {
     if cache.exists() && !cache.is_dir() {
         return Err(Failure::bad_input(format!("--cache {}: is not a folder", super::shown(&cache))));
     }
+    if let Some(doc) = &args.doc {
+        if against != Against::Salamander || args.preset.is_some() || args.instrument.is_some() || args.no_yardsticks {
+            return Err(Failure::bad_input(
+                "--doc: its table is the piano's against the recordings, with the yardsticks: \
+                 drop --reference, --preset, --instrument and --no-yardsticks",
+            ));
+        }
+        doc_with_table(doc, "")?;
+    }
     Ok(Plan { keys, layers, output, jobs, cache, preset, against })
+}
+
+/// The validation document's table of the comparison.
+const DOC_TABLE: &str = "real grand";
+
+/// `doc`'s text with its comparison table replaced by `table`, or why not.
+fn doc_with_table(doc: &Path, table: &str) -> Result<String, Failure> {
+    let text =
+        std::fs::read_to_string(doc).map_err(|e| Failure::bad_input(format!("--doc {}: {e}", super::shown(doc))))?;
+    report::with_table(&text, DOC_TABLE, table)
+        .map_err(|why| Failure::bad_input(format!("--doc {}: {why}", super::shown(doc))))
 }
 
 /// A recording decoded and measured.
@@ -213,6 +239,7 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
     let mut staged = Staged::reading(&[]);
     let json_slot = args.json.as_ref().map(|p| staged.reserve(p)).transpose()?;
     let csv_slot = args.csv.as_ref().map(|p| staged.reserve(p)).transpose()?;
+    let doc_slot = args.doc.as_ref().map(|p| staged.reserve(p)).transpose()?;
     let say = |line: String| {
         if !args.quiet {
             console::err(format!("struck compare: {line}"));
@@ -379,6 +406,10 @@ pub fn run(args: &CompareArgs) -> Result<(), Failure> {
     }
     if let (Some(slot), Some(path)) = (csv_slot, &args.csv) {
         staged.fill_with(slot, path, |w| report::write_csv(w, &takes))?;
+    }
+    if let (Some(slot), Some(path)) = (doc_slot, &args.doc) {
+        let text = doc_with_table(path, &report::markdown_table(&summary, &unavailable))?;
+        staged.fill_with(slot, path, |w| io::Write::write_all(w, text.as_bytes()))?;
     }
     staged.commit()?;
 

@@ -303,6 +303,71 @@ pub fn table(
     lines
 }
 
+/// The medians as a Markdown table, sources down and features across (a
+/// ratio as `x1.10`, a difference as `8.5 dB`): the table the validation
+/// document keeps between its `real grand` markers.
+pub fn markdown_table(
+    summary: &BTreeMap<Feature, BTreeMap<Source, Summary>>,
+    unavailable: &BTreeMap<Source, String>,
+) -> String {
+    const HEADS: [&str; 10] = [
+        "inharmonicity",
+        "early decay",
+        "late decay",
+        "partials' levels",
+        "centroid",
+        "its growth",
+        "dynamics",
+        "balance",
+        "40 dB fall",
+        "attack noise",
+    ];
+    let mut out = format!("| | {} |\n", HEADS.join(" | "));
+    out += &format!("|{}\n", " --- |".repeat(HEADS.len() + 1));
+    for source in Source::COMPARED {
+        if unavailable.get(&source).is_some_and(|why| why.starts_with("left out")) {
+            continue;
+        }
+        let cells: Vec<String> = Feature::ALL
+            .iter()
+            .map(|&feature| match summary.get(&feature).and_then(|m| m.get(&source)) {
+                _ if unavailable.contains_key(&source) => "not available".to_string(),
+                Some(Summary { median: Some(m), .. }) if feature.is_ratio() => format!("x{m:.2}"),
+                Some(Summary { median: Some(m), .. }) => format!("{m:.1} dB"),
+                _ => "-".to_string(),
+            })
+            .collect();
+        out += &format!("| {} | {} |\n", source.title(), cells.join(" | "));
+    }
+    out
+}
+
+/// `text` (a Markdown document) with what stands between its lines
+/// `<!-- table: NAME -->` and `<!-- /table: NAME -->` replaced by `table`,
+/// set off by a blank line on each side; an error naming what is missing
+/// when the markers are not there once each, in that order.
+pub fn with_table(text: &str, name: &str, table: &str) -> Result<String, String> {
+    let (open, close) = (format!("<!-- table: {name} -->"), format!("<!-- /table: {name} -->"));
+    let at = |marker: &str| {
+        let lines: Vec<usize> = text
+            .match_indices(marker)
+            .map(|(i, _)| i)
+            .filter(|&i| text[..i].ends_with('\n') || i == 0)
+            .filter(|&i| text[i + marker.len()..].starts_with('\n'))
+            .collect();
+        match lines[..] {
+            [i] => Ok(i),
+            [] => Err(format!("has no line `{marker}`")),
+            _ => Err(format!("has `{marker}` more than once")),
+        }
+    };
+    let (start, end) = (at(&open)?, at(&close)?);
+    if end < start {
+        return Err(format!("has `{close}` before `{open}`"));
+    }
+    Ok(format!("{}{open}\n\n{table}\n{}", &text[..start], &text[end..]))
+}
+
 /// Per-source figures that are not errors: the "boom" share, growing
 /// early decays, extrapolated fall times; the recordings' column headed
 /// `reference`.
@@ -593,5 +658,45 @@ mod tests {
         assert_eq!(lines.len(), 1 + 3 * takes.len());
         let columns = lines[0].split(',').count();
         assert!(lines.iter().all(|l| l.split(',').count() == columns), "{text}");
+    }
+
+    #[test]
+    fn the_medians_make_a_markdown_table() {
+        let summary: BTreeMap<Feature, BTreeMap<Source, Summary>> = Feature::ALL
+            .iter()
+            .map(|&f| {
+                let one = |m: f64| Summary { median: Some(m), p90: Some(m), n: 3 };
+                (f, BTreeMap::from([(Source::Struck, one(1.104)), (Source::Fluid, one(8.46))]))
+            })
+            .collect();
+        let unavailable = BTreeMap::from([(Source::FaustStk, "not installed".to_string())]);
+        let table = markdown_table(&summary, &unavailable);
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), 5, "{table}");
+        assert!(lines[0].starts_with("| | inharmonicity | early decay |") && lines[0].ends_with("attack noise |"));
+        assert_eq!(lines[1], format!("|{}", " --- |".repeat(11)));
+        assert!(lines[2].starts_with("| Struck | x1.10 | x1.10 | x1.10 | 1.1 dB |"), "{}", lines[2]);
+        assert!(lines[3].starts_with("| FluidR3 | x8.46 |") && lines[3].ends_with("| 8.5 dB |"), "{}", lines[3]);
+        assert!(lines[4].starts_with("| Faust-STK | not available |"), "{}", lines[4]);
+        // Left out: no row at all.
+        let left_out = BTreeMap::from([(Source::FaustStk, "left out (--no-yardsticks)".to_string())]);
+        assert_eq!(markdown_table(&summary, &left_out).lines().count(), 4);
+    }
+
+    #[test]
+    fn a_table_replaces_only_what_stands_between_its_markers() {
+        let doc = "# Title\n\n<!-- table: real grand -->\n\n| old |\n\n<!-- /table: real grand -->\n\nAfter.\n";
+        let new = with_table(doc, "real grand", "| new |\n").unwrap();
+        assert_eq!(new, "# Title\n\n<!-- table: real grand -->\n\n| new |\n\n<!-- /table: real grand -->\n\nAfter.\n");
+        // Written again, the same.
+        assert_eq!(with_table(&new, "real grand", "| new |\n").unwrap(), new);
+        assert!(with_table("no markers\n", "real grand", "").unwrap_err().contains("has no line"));
+        let twice = format!("{doc}{doc}");
+        assert!(with_table(&twice, "real grand", "").unwrap_err().contains("more than once"));
+        let reversed = "<!-- /table: real grand -->\n<!-- table: real grand -->\n";
+        assert!(with_table(reversed, "real grand", "").unwrap_err().contains("before"));
+        // A marker quoted inside a line is not a marker.
+        let quoted = "see `<!-- table: real grand -->` here\n";
+        assert!(with_table(quoted, "real grand", "").is_err());
     }
 }

@@ -242,7 +242,7 @@ mod tests {
         let mut seen = PanelSeen::default();
         assert!(taken(&link, &mut seen).is_empty());
         link.press(60, 100);
-        assert_eq!(taken(&link, &mut seen), [Event::NoteOn { key: 60, velocity: 100.0 / 127.0 }]);
+        assert_eq!(taken(&link, &mut seen), [Event::NoteOn { key: 60, velocity: midi_velocity(100) }]);
         assert!(taken(&link, &mut seen).is_empty(), "once");
         assert!(link.panel_holds(60));
         link.release(60);
@@ -251,18 +251,22 @@ mod tests {
         link.press(62, 40);
         link.release(62);
         link.press(62, 80);
-        assert_eq!(taken(&link, &mut seen), [Event::NoteOn { key: 62, velocity: 80.0 / 127.0 }], "the last strike");
+        assert_eq!(
+            taken(&link, &mut seen),
+            [Event::NoteOn { key: 62, velocity: midi_velocity(80) }],
+            "the last strike"
+        );
         link.press(62, 90);
         assert_eq!(
             taken(&link, &mut seen),
-            [Event::NoteOff { key: 62, velocity: 0.5 }, Event::NoteOn { key: 62, velocity: 90.0 / 127.0 }]
+            [Event::NoteOff { key: 62, velocity: 0.5 }, Event::NoteOn { key: 62, velocity: midi_velocity(90) }]
         );
         // Struck and let go before the block: struck, and let go at once.
         link.press(64, 50);
         link.release(64);
         assert_eq!(
             taken(&link, &mut seen),
-            [Event::NoteOn { key: 64, velocity: 50.0 / 127.0 }, Event::NoteOff { key: 64, velocity: 0.5 }]
+            [Event::NoteOn { key: 64, velocity: midi_velocity(50) }, Event::NoteOff { key: 64, velocity: 0.5 }]
         );
         // The panel's sustain pedal, down and up.
         link.set_pedal_from_panel(Pedal::Sustain, 1.0);

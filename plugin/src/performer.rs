@@ -826,7 +826,8 @@ mod tests {
             p.translate(event, time);
         }
         let hammer = |hardness| Event::KeyHammer { key: 48, hardness, position: 1.0 };
-        let strike = Event::NoteOn { key: 48, velocity: 0.7 };
+        // (The host's 32-bit velocity, widened.)
+        let strike = Event::NoteOn { key: 48, velocity: f64::from(0.7f32) };
         let events: Vec<(u32, Event)> = p.events.iter().map(|e| (e.time, e.event)).collect();
         assert_eq!(events, [(5, hammer(4.0)), (5, strike), (9, hammer(1.0)), (9, strike)]);
     }

@@ -63,6 +63,9 @@ pub struct StruckPlugin {
     /// samples since (it is told at most once a second).
     guard_told: GuardReport,
     since_told: u64,
+    /// A CLAP host has been asked to restart the plugin for a new latency
+    /// (load smoothing switched while active), and has not yet.
+    restart_asked: bool,
 }
 
 /// Work the audio thread hands to a background thread.
@@ -88,6 +91,7 @@ impl Default for StruckPlugin {
             keyboard: Arc::new(KeyboardLink::default()),
             guard_told: GuardReport::default(),
             since_told: u64::MAX,
+            restart_asked: false,
         }
     }
 }
@@ -193,10 +197,12 @@ impl Plugin for StruckPlugin {
             if performer.latency() != latency {
                 performer.set_latency(latency);
             }
-            // (nice-plug tells the host after activation; a host that asked
-            // for the latency already may restart the plugin once for it.)
+            // The only place a CLAP plugin may tell its host of a new
+            // latency: inside activate (nice-plug calls the host's
+            // `latency.changed` from here when the value differs).
             context.set_latency_samples(latency as u32);
         }
+        self.restart_asked = false;
         self.offline = buffer_config.process_mode == ProcessMode::Offline;
         // (Offline, the first block makes sure what plays is what is asked for.)
         self.builds = OfflineBuilds::new(sample_rate_hz);
@@ -256,9 +262,22 @@ impl Plugin for StruckPlugin {
         performer.set_voicing(&self.params.voicing());
         let latency = self.params.latency(self.sample_rate_hz);
         if latency != performer.latency() {
-            // (The host restarts the plugin to take the new latency.)
-            performer.set_latency(latency);
-            context.set_latency_samples(latency as u32);
+            if context.plugin_api() == PluginApi::Clap {
+                // CLAP lets the latency change only inside activate: the
+                // plugin asks the host to restart it (a thread-safe call) and
+                // keeps the latency it reported, and the delay it is heard
+                // with, until then.
+                if !self.restart_asked {
+                    context.request_restart();
+                    self.restart_asked = true;
+                }
+            } else {
+                // VST3 and the standalone take it at once: nice-plug restarts
+                // the VST3 component with the latency flag, and the host asks
+                // for the new latency.
+                performer.set_latency(latency);
+                context.set_latency_samples(latency as u32);
+            }
         }
         let mut host = HostEvents { context, report_ends };
         let sounding = performer.process(controls, &mut host, left, right);

@@ -13,10 +13,10 @@
 use std::cell::Cell;
 use std::ffi::CStr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Duration;
 
-use clack_extensions::latency::PluginLatency;
+use clack_extensions::latency::{HostLatency, HostLatencyImpl, PluginLatency};
 use clack_extensions::params::{ParamInfoBuffer, PluginParams};
 use clack_extensions::render::{PluginRender, RenderMode};
 use clack_extensions::state::PluginState;
@@ -53,26 +53,41 @@ fn bundle() -> Option<PathBuf> {
     None
 }
 
-/// The host's thread-safe side: remembers when the plugin asks for a main-thread callback.
+/// The host's thread-safe side: remembers when the plugin asks for a
+/// main-thread callback, and counts its requests to be restarted.
 struct Shared {
     callback: AtomicBool,
+    restarts: AtomicU32,
 }
 
 impl SharedHandler<'_> for Shared {
-    fn request_restart(&self) {}
+    fn request_restart(&self) {
+        self.restarts.fetch_add(1, Ordering::SeqCst);
+    }
     fn request_process(&self) {}
     fn request_callback(&self) {
         self.callback.store(true, Ordering::SeqCst);
     }
 }
 
-/// The host's main-thread side: counts voice-info changes.
+/// The host's main-thread side: counts voice-info changes, and latency
+/// changes told inside `activate` and outside it (CLAP allows them only inside).
 #[derive(Default)]
 struct MainThread {
     voice_info_changes: Cell<u32>,
+    activating: Cell<bool>,
+    latency_changes: Cell<u32>,
+    latency_changes_outside_activate: Cell<u32>,
 }
 
 impl MainThreadHandler<'_> for MainThread {}
+
+impl HostLatencyImpl for MainThread {
+    fn changed(&self) {
+        let count = if self.activating.get() { &self.latency_changes } else { &self.latency_changes_outside_activate };
+        count.set(count.get() + 1);
+    }
+}
 
 impl HostVoiceInfoImpl for MainThread {
     fn changed(&self) {
@@ -88,7 +103,7 @@ impl HostHandlers for TestHost {
     type AudioProcessor<'a> = ();
 
     fn declare_extensions(builder: &mut HostExtensions<Self>, _shared: &Self::Shared<'_>) {
-        builder.register::<HostVoiceInfo>();
+        builder.register::<HostVoiceInfo>().register::<HostLatency>();
     }
 }
 
@@ -107,7 +122,7 @@ impl Loaded {
 
     fn instance(&self) -> PluginInstance<TestHost> {
         PluginInstance::<TestHost>::new(
-            |_| Shared { callback: AtomicBool::new(false) },
+            |_| Shared { callback: AtomicBool::new(false), restarts: AtomicU32::new(0) },
             |_| MainThread::default(),
             &self.entry,
             PLUGIN_ID,
@@ -166,7 +181,9 @@ struct Run {
 /// from `script`, pausing `pace` after each (the workshop rebuilds in real time).
 fn process(instance: &mut PluginInstance<TestHost>, sizes: &[usize], script: &Script, pace: Duration) -> Run {
     let config = PluginAudioConfiguration { sample_rate: FS, min_frames_count: 1, max_frames_count: 4096 };
+    instance.access_handler(|h: &MainThread| h.activating.set(true));
     let processor = instance.activate(|_, _| (), config).expect("activate");
+    instance.access_handler(|h: &MainThread| h.activating.set(false));
     let (processor, run) = std::thread::scope(|s| {
         s.spawn(|| {
             let mut processor = processor.start_processing().expect("start processing");
@@ -740,6 +757,71 @@ fn load_smoothing_delays_the_sound_by_the_latency_it_reports() {
             "not the same samples {latency} later (pace {pace:?})"
         );
     }
+}
+
+#[test]
+fn switching_load_smoothing_while_active_asks_for_a_restart_and_tells_the_latency_in_activate() {
+    // CLAP lets a plugin's latency change only inside `activate`: switched
+    // while the plugin plays, load smoothing asks the host for a restart and
+    // keeps the 128 samples it reported (and is heard with) until then; the
+    // activation after reports none, and the note is heard at once. The
+    // host's `latency.changed` is called only inside `activate`. (nice-plug
+    // learns a latency in `activate` and tells the host inside the activation
+    // after: each new latency asks for one restart more.)
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let mut instance = loaded.instance();
+    let ids = param_ids(&mut instance);
+    let latency = |instance: &mut PluginInstance<TestHost>| {
+        let handle = instance.plugin_handle();
+        let ext: PluginLatency = handle.get_extension().expect("latency extension");
+        ext.get(&handle) as usize
+    };
+    let told = |instance: &mut PluginInstance<TestHost>| {
+        let restarts = instance.access_shared_handler(|s| s.restarts.load(Ordering::SeqCst));
+        let (inside, outside) = instance
+            .access_handler(|h: &MainThread| (h.latency_changes.get(), h.latency_changes_outside_activate.get()));
+        (restarts, inside, outside)
+    };
+    // Where the note comes through, past what a restart's reset leaves of
+    // the run before (its fade, after the 128 samples of load smoothing's
+    // delay; then the DC block's settling, under -90 dBFS).
+    let onset = |left: &[f32]| 1024 + left[1024..].iter().position(|&v| v.abs() > 1e-4).expect("a note is heard");
+    let sizes = vec![64; (0.3 * FS) as usize / 64];
+    let struck = 30 * 64 + 5;
+    let note = || {
+        let mut events = EventBuffer::new();
+        events.push(&note_on(5, 60, 1, 0.8));
+        (30, events)
+    };
+
+    // The first activation learns 128 samples, and asks to be restarted to tell them.
+    let run = process(&mut instance, &sizes, &vec![note()], Duration::ZERO);
+    let smoothed = onset(&run.left);
+    assert_eq!(
+        (latency(&mut instance), told(&mut instance)),
+        (128, (1, 0, 0)),
+        "(latency, (restarts, told inside, outside))"
+    );
+
+    // Restarted: told, inside activate. Load smoothing is switched off while it plays.
+    let mut off = EventBuffer::new();
+    off.push(&set(0, param(&ids, "Load smoothing"), 0.0));
+    let run = process(&mut instance, &sizes, &vec![(10, off), note()], Duration::ZERO);
+    assert_eq!(onset(&run.left), smoothed, "until the restart the note is as late as before");
+    assert_eq!((latency(&mut instance), told(&mut instance)), (128, (2, 1, 0)), "a restart asked for the switch");
+
+    // Restarted: no latency, heard at once; the new latency is to be told.
+    let run = process(&mut instance, &sizes, &vec![note()], Duration::ZERO);
+    let plain = onset(&run.left);
+    assert_eq!(smoothed - plain, 128, "heard 128 samples sooner after the restart");
+    assert!((struck..struck + 64).contains(&plain), "heard at once: {plain} against {struck}");
+    assert_eq!((latency(&mut instance), told(&mut instance)), (0, (3, 1, 0)), "the new latency, to be told");
+
+    // Restarted: told, inside activate; nothing more asked.
+    let run = process(&mut instance, &sizes, &vec![note()], Duration::ZERO);
+    assert_eq!(onset(&run.left), plain, "heard at once");
+    assert_eq!((latency(&mut instance), told(&mut instance)), (0, (3, 2, 0)), "told inside activate, once");
 }
 
 #[test]

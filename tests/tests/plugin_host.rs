@@ -175,6 +175,16 @@ struct Run {
     note_ends: Vec<(usize, i32, i64)>,
     /// Per block: whether the plugin asked to keep processing regardless of silence.
     keep_alive: Vec<bool>,
+    /// Per block: the CPU time the audio thread spent in `process`, s.
+    cpu_s: Vec<f64>,
+}
+
+/// CPU time this thread has run, s (a preempted thread's wait not counted).
+fn thread_cpu_s() -> f64 {
+    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: a valid out-pointer to a timespec; the clock id is a constant.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + 1e-9 * t.tv_nsec as f64
 }
 
 /// Process blocks of the given sizes on an audio thread, with each block's events
@@ -193,6 +203,7 @@ fn process(instance: &mut PluginInstance<TestHost>, sizes: &[usize], script: &Sc
                 right: Vec::with_capacity(total),
                 note_ends: Vec::new(),
                 keep_alive: Vec::new(),
+                cpu_s: Vec::with_capacity(sizes.len()),
             };
             let mut outputs = AudioPorts::with_capacity(2, 1);
             let mut out_events = EventBuffer::with_capacity(1024);
@@ -214,6 +225,7 @@ fn process(instance: &mut PluginInstance<TestHost>, sizes: &[usize], script: &Sc
                     latency: 0,
                     channels: AudioPortBufferType::f32_output_only([&mut left[..n], &mut right[..n]]),
                 }]);
+                let cpu = thread_cpu_s();
                 let status = processor
                     .process(
                         &input_audio,
@@ -224,6 +236,7 @@ fn process(instance: &mut PluginInstance<TestHost>, sizes: &[usize], script: &Sc
                         None,
                     )
                     .expect("process");
+                run.cpu_s.push(thread_cpu_s() - cpu);
                 run.keep_alive.push(status == ProcessStatus::Continue);
                 for event in out_events.iter() {
                     if let Some(CoreEventSpace::NoteEnd(end)) = event.as_core_event() {
@@ -822,6 +835,139 @@ fn switching_load_smoothing_while_active_asks_for_a_restart_and_tells_the_latenc
     let run = process(&mut instance, &sizes, &vec![note()], Duration::ZERO);
     assert_eq!(onset(&run.left), plain, "heard at once");
     assert_eq!((latency(&mut instance), told(&mut instance)), (0, (3, 2, 0)), "told inside activate, once");
+}
+
+/// The largest step from one sample to the next over `from..to`, as a
+/// multiple of the RMS of the quieter side around it (5 ms before, 5 ms
+/// after), among the steps over -80 dBFS: a cut to silence or a jump
+/// between two sounds stands out; a fade, however quick, does not.
+fn worst_step_over_local_rms(x: &[f32], from: usize, to: usize) -> (f64, usize) {
+    let side = (0.005 * FS) as usize;
+    let mut energy = vec![0.0f64; x.len() + 1];
+    for (i, &v) in x.iter().enumerate() {
+        energy[i + 1] = energy[i] + (v as f64).powi(2);
+    }
+    let rms = |a: usize, b: usize| ((energy[b] - energy[a]) / (b - a) as f64).sqrt();
+    (from.max(side)..to.min(x.len() - side))
+        .filter_map(|n| {
+            let step = (x[n] as f64 - x[n - 1] as f64).abs();
+            (step > 1e-4).then(|| (step / rms(n - side, n).min(rms(n, n + side)).max(1e-12), n))
+        })
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a })
+}
+
+/// How long the switches are played: time for the builder thread to build
+/// a piano on a busy machine.
+const SWITCH_RUN_S: f64 = 6.0;
+
+/// A chord held in the sustain pedal at 0.1 s, and `change` at 0.5 s; played
+/// at about real time's pace, so the plugin builds what the change asks for
+/// on its own thread and hands it over when done. Returns the run and the run
+/// without the change.
+fn held_chord_with(loaded: &Loaded, change: impl Fn(&[(String, ClapId, f64)]) -> EventBuffer) -> (Run, Run) {
+    let play = |changed: bool| {
+        let mut instance = loaded.instance();
+        let ids = param_ids(&mut instance);
+        let sizes = vec![BLOCK; (SWITCH_RUN_S * FS) as usize / BLOCK];
+        let block_at = |seconds: f64| (seconds * FS) as usize / BLOCK;
+        let mut script: Script = Vec::new();
+        let mut pedal = EventBuffer::new();
+        pedal.push(&midi(0, [0xB0, 64, 127]));
+        script.push((block_at(0.05), pedal));
+        let mut chord = EventBuffer::new();
+        for (i, key) in [36u16, 48, 55, 60, 64, 67, 72, 79].into_iter().enumerate() {
+            chord.push(&note_on(11, key, i as u32, 0.9));
+        }
+        script.push((block_at(0.1), chord));
+        if changed {
+            script.push((block_at(0.5), change(&ids)));
+        }
+        // 256 samples are 5.3 ms: 4 ms a block keeps under the pace that
+        // counts as rendering offline (which would build at once). Unchanged,
+        // nothing is built, and the pace changes no sample.
+        process(&mut instance, &sizes, &script, if changed { Duration::from_millis(4) } else { Duration::ZERO })
+    };
+    (play(true), play(false))
+}
+
+fn set_plain(time: u32, (id, _): (ClapId, f64), value: f64) -> ParamValueEvent {
+    ParamValueEvent::new(time, id, Pckn::match_all(), value)
+}
+
+#[test]
+fn switching_instrument_preset_or_voicing_under_held_keys_fades_without_a_click() {
+    // Eight keys held in the pedal, ringing at full strength, when the
+    // instrument, a preset's worth of parameters or the hammer's mass
+    // changes: the old keys fade out (another instrument) or carry over into
+    // the new tables (the same instrument), and no sample steps out of the
+    // sound around it by more than 4 times its RMS. Nothing allocates (a
+    // debug bundle aborts if anything does), and no block from the change on
+    // takes the audio thread longer than it lasts (CPU time, so a busy
+    // machine's preemption does not count).
+    let Some(path) = bundle() else { return };
+    let loaded = Loaded::new(&path);
+    let harpsichord = |ids: &[(String, ClapId, f64)]| {
+        let mut e = EventBuffer::new();
+        e.push(&set_plain(30, param(ids, "Instrument"), 6.0));
+        e
+    };
+    let preset = |ids: &[(String, ClapId, f64)]| {
+        // What the panel's library sets for a fortepiano preset, in one block.
+        let mut e = EventBuffer::new();
+        e.push(&set_plain(30, param(ids, "Instrument"), 1.0));
+        e.push(&set_plain(30, param(ids, "Hammer mass"), 0.8));
+        e.push(&set_plain(30, param(ids, "Damping"), 1.3));
+        e.push(&set_plain(30, param(ids, "Microphones"), 2.0));
+        e.push(&set_plain(30, param(ids, "Stereo width"), 0.7));
+        e.push(&set_plain(30, param(ids, "Level"), -4.0));
+        e
+    };
+    let detune = |ids: &[(String, ClapId, f64)]| {
+        // The unisons' spread is built into the tables: the keys carry over.
+        let mut e = EventBuffer::new();
+        e.push(&set_plain(30, param(ids, "Unison detune"), 2.0));
+        e
+    };
+    let block_s = BLOCK as f64 / FS;
+    let mut report = Vec::new();
+    for (name, change) in [
+        ("instrument", &harpsichord as &dyn Fn(&[(String, ClapId, f64)]) -> EventBuffer),
+        ("preset", &preset),
+        ("voicing", &detune),
+    ] {
+        let (run, plain) = held_chord_with(&loaded, change);
+        // The change is heard (the runs part), and the new instrument comes in:
+        // another one once the old keys have faded (the new one is silent: none
+        // of its keys is struck), the same one carrying the keys over.
+        let asked = (0.5 * FS) as usize / BLOCK * BLOCK;
+        let differs = |a: &[f32], b: &[f32]| a.iter().zip(b).position(|(x, y)| x.to_bits() != y.to_bits());
+        let at = differs(&run.left, &plain.left)
+            .unwrap_or_else(|| panic!("{name}: not heard within {SWITCH_RUN_S} s ({report:?})"));
+        assert!(at >= asked, "{name}: heard at {at}, before it was asked at {asked}");
+        let end = run.left.len();
+        let tail = rms(&run.left[end - BLOCK * 8..]);
+        if name == "voicing" {
+            assert!(tail > 1e-3, "{name}: the keys did not carry over ({tail})");
+        } else {
+            assert!(tail < 1e-5, "{name}: the old instrument still sounds ({tail})");
+        }
+        let around = (asked - BLOCK, end);
+        let (left, l_at) = worst_step_over_local_rms(&run.left, around.0, around.1);
+        let (right, r_at) = worst_step_over_local_rms(&run.right, around.0, around.1);
+        let (before, _) = worst_step_over_local_rms(&plain.left, around.0, around.1);
+        let busiest =
+            run.cpu_s[around.0 / BLOCK..(around.1 / BLOCK).min(run.cpu_s.len())].iter().fold(0.0f64, |a, &b| a.max(b));
+        report.push(format!(
+            "{name}: heard {:.3} s after asked; worst step {left:.2}x (left, at {:.3} s), {right:.2}x (right, at {:.3} s) the local RMS, unchanged {before:.2}x; busiest block {:.0} % of its time",
+            (at - asked) as f64 / FS,
+            l_at as f64 / FS,
+            r_at as f64 / FS,
+            100.0 * busiest / block_s,
+        ));
+        assert!(left <= 4.0 && right <= 4.0, "{name}: a click: {}", report.last().unwrap());
+        assert!(busiest < block_s, "{name}: a block overran: {}", report.last().unwrap());
+    }
+    println!("{}", report.join("\n"));
 }
 
 #[test]

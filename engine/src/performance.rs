@@ -20,28 +20,28 @@ pub const SOFTEST_MALLET: f64 = 1.0e-3;
 #[derive(Clone, Debug, PartialEq)]
 pub struct PerformanceState {
     /// The sustain pedal, 0 (up) ..= 1 (down).
-    pub sustain: f64,
+    pub(crate) sustain: f64,
     /// The sustain pedal has lifted the dampers (until it comes back up), and
     /// how far through its spread of control blocks they are leaving their
     /// strings (over `LIFT_SPREAD_BLOCKS` control blocks).
-    pub dampers_lifted: bool,
-    pub lifting: Option<usize>,
+    pub(crate) dampers_lifted: bool,
+    pub(crate) lifting: Option<usize>,
     /// The sostenuto pedal is down.
-    pub sostenuto: bool,
+    pub(crate) sostenuto: bool,
     /// How far una corda shifts the action, 0..=1.
-    pub una_corda: f64,
+    pub(crate) una_corda: f64,
     /// Hand-held mallets' hardness from the mod wheel: a factor on the
     /// contact stiffness (a keyboard's hammers ignore it).
-    pub mallet_hardness: f64,
+    pub(crate) mallet_hardness: f64,
     /// Pitch-wheel position -1..=1, and the frequency ratio it bends to.
-    pub wheel: f64,
-    pub bend: f64,
+    pub(crate) wheel: f64,
+    pub(crate) bend: f64,
     /// Each MIDI key's own tuning, volume, place and hammer (its note's
     /// expressions), and which MIDI key's the strings of each course have
     /// now (by the course's home key): keys that share strings (the
     /// dulcimer's upper courses, a fretted clavichord) each keep their own.
-    pub own: [OwnNote; 128],
-    pub owner: [u8; 128],
+    pub(crate) own: [OwnNote; 128],
+    pub(crate) owner: [u8; 128],
 }
 
 impl Default for PerformanceState {

@@ -2,7 +2,11 @@
 //! a press, hammers let go, the unison's trade, the modes culled, the
 //! phantom products refreshed, and silence noticed.
 
-use super::*;
+use super::{
+    COURSE_LOOP_LIMIT, CULL_BELOW_LOUDEST, CULL_EVERY_BLOCKS, CULL_FLOOR, ExciterDesign, HAMMER_GONE_AFTER_S,
+    HAMMER_GONE_GAP_M, Key, PRESSURE_SMOOTHING_S, PerformanceState, PhantomState, RETUNE_THRESHOLD, StruckString,
+    TRADE_BLOCKS, tangent,
+};
 
 impl Key {
     /// Once per control block: move the damper, retune for a bend or a press, let

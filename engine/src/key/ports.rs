@@ -1,7 +1,7 @@
 //! A key as the other strings on the body meet it: its partials' sums and
 //! the drive the bridge's motion gives them (sympathetic resonance).
 
-use super::*;
+use super::{CULL_FLOOR, Complex64, DRIVEN_BLOCKS, Key, PerformanceState, StruckString, WAKE_OVER_SILENCE};
 
 impl Key {
     /// For each of `ports` (strings, partial), the summed phasor of

@@ -2,7 +2,7 @@
 //! gathered and run together, the strings still played stepped sample by
 //! sample, the gains and fades, the key bed's knock.
 
-use super::*;
+use super::{Bridge, CONTROL_BLOCK, FreeGather, Key, LANES, add_lane_sums};
 
 impl Key {
     /// Hand its strings' (and products') state back from the gathering they

@@ -2,7 +2,10 @@
 //! uneven or hand-held heads, tangent, plectrum) and coming up, the damper
 //! landing, the pedal lifting it, and the strike's regulation.
 
-use super::*;
+use super::{
+    ActionNoise, ContactLaw, DEFAULT_SUBSTEPS, ExciterDesign, HammerSpec, Key, LIFT_TOP_HZ, MAX_STRIKE_POINT,
+    MIN_STRIKE_POINT, MISSED, PerformanceState, PluckSpec, TangentSpec, Touch, UNA_CORDA_STIFFNESS, action,
+};
 
 impl Key {
     /// Note `note` goes down with `touch` (a speed for hammers, mallets and

@@ -2,7 +2,7 @@
 //! body every few control blocks, and strings that share a bridge point
 //! (a dulcimer's course) sample by sample.
 
-use super::*;
+use super::{Complex64, Key, MAX_UNISON, trade};
 
 impl Key {
     /// A control block of the unison's strings trading energy through their

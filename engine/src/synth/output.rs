@@ -1,7 +1,7 @@
 //! The output stage: every instrument's mix through a DC block and the
 //! output gain, gliding to its control, into the host's samples.
 
-use super::*;
+use super::{CONTROL_BLOCK, ScopeWriter, guard};
 
 /// Corner of the output's DC blocker, Hz (a pressed tangent holds a static force).
 pub(super) const DC_BLOCK_HZ: f64 = 5.0;

@@ -2,7 +2,10 @@
 //! they change) and what the player sets from block to block without one
 //! ([`Controls`]: the touch curve, polyphony, levels, the output).
 
-use super::*;
+use super::{
+    ActionNoise, Deserialize, InstrumentKind, MicPlacement, Output, Serialize, StringError, Touch, TouchRange,
+    TuningSettings, Voicing,
+};
 
 /// What an instrument's tables depend on. Changing any of these means a rebuild.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

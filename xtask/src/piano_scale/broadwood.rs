@@ -1,7 +1,10 @@
 //! The seed's Broadwood: its C strings as Euphonics 12.2.1's Table 1 lists
 //! them, the notes between scaled through them, and its hammers.
 
-use super::*;
+use super::{
+    BRASS, COPPER_DENSITY_KG_M3, IRON, Material, PI, STEEL, Scale, UNISON_CENTS_AT_C4, UNISON_EXPONENT, Wound,
+    bending_stiffness_n_m2, csv, frequency_hz, note_name, wire_mass_per_length_kg_m,
+};
 
 /// A C string of the Broadwood (Euphonics 12.2.1, Table 1).
 pub(super) struct BroadwoodC {

@@ -1,7 +1,10 @@
 //! The fortepiano's scale: a Viennese instrument's lengths, two and three
 //! strings a note, brass in the bass.
 
-use super::*;
+use super::{
+    BRASS, CHAIGNE_ASKENFELT, FORTEPIANO_GAUGES, IRON, LEATHER_CROSSOVER_M, LEATHER_EXPONENT, Scale,
+    UNISON_CENTS_AT_C4, UNISON_EXPONENT, csv, frequency_hz, interpolate, note_name, wire_mass_per_length_kg_m,
+};
 
 pub(super) fn fortepiano() -> Scale {
     let mut scale = Scale {

@@ -1,7 +1,7 @@
 //! The body's inner loops: its modes run over a control block in groups
 //! of lanes, and the lanes' halves paired up into the microphones' samples.
 
-use super::*;
+use super::{CONTROL_BLOCK, LANES, Lanes, MAX_ZONES, STATE_FLOOR, modal_bank, multiversion};
 
 /// Each sample's two halves of lanes added in double precision.
 pub(super) fn pair_up(acc: &[Lanes], pairs: &mut [[f64; modal_bank::LANES]]) {

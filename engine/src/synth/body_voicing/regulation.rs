@@ -1,7 +1,10 @@
 //! A key's regulation through the body (its gain by touch, so a crescendo
 //! keeps rising) and the evening of neighbours that ring apart.
 
-use super::*;
+use super::{
+    Body, Key, REGULATION_CLOSER_DB, REGULATION_REFINEMENTS, REGULATION_RISE_DB, REGULATION_TOUCHES, Touch, TouchRange,
+    Voiced, regulated, ring_through_body,
+};
 
 /// A key's regulation: how much each touch (by its value, as
 /// [`Key::regulate`] takes it) must be turned down so that its ring through the

@@ -1,7 +1,7 @@
 //! A note's envelope in time: its onset, the frame track's smoothing, decay
 //! rates over a span, the noise floor and the time to fall 40 dB.
 
-use super::*;
+use super::{FALL_DB, FLOOR_MARGIN_DB, db, line_fit, median};
 
 /// One frame of a partial's track.
 #[derive(Clone, Copy, Debug)]

@@ -223,6 +223,8 @@ impl Plugin for StruckPlugin {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
+        // (The standalone, when asked, times every callback; the guard's drop ends it.)
+        let _timing = standalone::time_callback(buffer.samples(), self.sample_rate_hz);
         let samples = buffer.samples();
         let channels = buffer.as_slice();
         let Some(performer) = self.performer.as_mut() else {

@@ -442,7 +442,8 @@ impl Default for StruckParams {
                 bend_range: IntParam::new("Bend range", 2, IntRange::Linear { min: 0, max: 24 }).with_unit(" st"),
                 mpe: BoolParam::new("MPE", false),
                 mpe_range: IntParam::new("MPE bend range", 48, IntRange::Linear { min: 1, max: 96 }).with_unit(" st"),
-                smoothing: BoolParam::new("Load smoothing", true).non_automatable(),
+                smoothing: BoolParam::new("Load smoothing", crate::standalone::smoothing_at_start(true))
+                    .non_automatable(),
                 level_db: FloatParam::new("Level", 0.0, FloatRange::Linear { min: -60.0, max: 12.0 })
                     .with_unit(" dB")
                     .with_step_size(0.1)

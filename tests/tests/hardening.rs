@@ -130,6 +130,22 @@ fn argument_errors_and_unknown_commands_take_one_line() {
 }
 
 #[test]
+fn the_standalones_environment_is_checked_before_it_plays() {
+    let live = |var: &str, value: &str| {
+        std::process::Command::new(struck_tests::struck_binary())
+            .args(["-b", "dummy"])
+            .env(var, value)
+            .env_remove("DISPLAY")
+            .output()
+            .expect("run struck")
+    };
+    refused(&live("STRUCK_LOAD_SMOOTHING", "maybe"), "STRUCK_LOAD_SMOOTHING=maybe: must be on or off");
+    let dir = tempfile::tempdir().unwrap();
+    let nowhere = text(&dir.path().join("no-such-dir").join("callbacks.txt"));
+    refused(&live("STRUCK_CALLBACK_STATS", &nowhere), "STRUCK_CALLBACK_STATS=");
+}
+
+#[test]
 fn a_files_own_escape_sequences_are_shown_not_sent_to_the_terminal() {
     let dir = tempfile::tempdir().unwrap();
     let case = dir.path().join("case\u{1b}[31m.json");

@@ -37,6 +37,9 @@ pub const PYTHON_REQUIREMENTS: &[&str] =
 pub const PEDALBOARD_SCRIPT: &str = "tests/python/pedalboard_check.py";
 /// The script that plays the standalone over JACK (dummy driver) and records it.
 pub const JACK_SCRIPT: &str = "tests/python/jack_session.py";
+/// The script that plays the standalone live for a minute at small JACK periods and
+/// times its callbacks.
+pub const JACK_LIVE_SCRIPT: &str = "tests/python/jack_live.py";
 /// The script that drives Ardour 7 headless with the VST3, for every instrument.
 pub const ARDOUR_SCRIPT: &str = "tests/ardour/roundtrip.sh";
 
@@ -102,6 +105,14 @@ pub fn steps(options: &TestOptions) -> Vec<Step<'_>> {
             "ardour",
             "every instrument in Ardour 7 (headless): a session saved, reopened and rendered again, the same bytes",
             ardour,
+        ),
+        Step::new(
+            "jack-live",
+            format!(
+                "play a dense fortissimo piece live over JACK for 60 s at 48 kHz/64 and 96 kHz/128, load \
+                 smoothing on and off ({profile} build): no xrun, every callback under half its period"
+            ),
+            move || jack_live(release),
         ),
     ]
 }
@@ -216,6 +227,19 @@ fn jack_session(release: bool) -> Result<()> {
         .env("PYTHONDONTWRITEBYTECODE", "1"))
 }
 
+/// Four runs of 60 s (about 4.5 minutes): the standalone's callbacks timed inside them.
+fn jack_live(release: bool) -> Result<()> {
+    let python = checks_python(&target_dir()?.join("pedalboard-venv"))?;
+    let struck = bundle::struck_binary(release)?;
+    let logs = target_dir()?.join("jack-live-logs");
+    run(Command::new(&python)
+        .arg(relative(&workspace_root().join(JACK_LIVE_SCRIPT)))
+        .arg(&struck)
+        .arg("--keep-logs")
+        .arg(relative(&logs))
+        .env("PYTHONDONTWRITEBYTECODE", "1"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -226,7 +250,18 @@ mod tests {
         let names: Vec<&str> = steps(&options).iter().map(|s| s.name).collect();
         assert_eq!(
             names,
-            ["packages", "lint", "bundle", "footprint", "cargo-test", "pedalboard", "panel", "jack-session", "ardour"]
+            [
+                "packages",
+                "lint",
+                "bundle",
+                "footprint",
+                "cargo-test",
+                "pedalboard",
+                "panel",
+                "jack-session",
+                "ardour",
+                "jack-live"
+            ]
         );
     }
 

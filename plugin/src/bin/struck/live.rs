@@ -17,7 +17,10 @@ use std::process::ExitCode;
 use struck_lab::console;
 
 use struck::StruckPlugin;
-use struck::standalone::{mark_standalone, stop_requested, watch_stop_signals};
+use struck::standalone::{
+    CALLBACK_STATS_VAR, mark_standalone, report_callbacks_to, smoothing_from_env, stop_requested, watch_stop_signals,
+    write_callback_report,
+};
 
 /// The line printed when no audio device can be used.
 pub fn no_device_message(reasons: &str) -> String {
@@ -93,9 +96,26 @@ pub fn run(args: Vec<String>) -> ExitCode {
         console::err(no_device_message(&reasons));
         return ExitCode::FAILURE;
     }
+    if let Err(reason) = smoothing_from_env() {
+        console::err(format!("struck: {reason}"));
+        return ExitCode::from(2);
+    }
+    let stats = std::env::var_os(CALLBACK_STATS_VAR).filter(|p| !p.is_empty()).map(std::path::PathBuf::from);
+    if let Some(path) = &stats
+        && let Err(reason) = report_callbacks_to(path.clone())
+    {
+        console::err(format!("struck: {reason}"));
+        return ExitCode::from(2);
+    }
     mark_standalone();
     start_stop_watchdog();
-    if nice_plug::prelude::nice_export_standalone_with_args::<StruckPlugin, _>(args) {
+    let played = nice_plug::prelude::nice_export_standalone_with_args::<StruckPlugin, _>(args);
+    if let Some(path) = &stats
+        && let Err(e) = write_callback_report(path)
+    {
+        console::err(format!("struck: cannot write the callback report {}: {e}", path.display()));
+    }
+    if played {
         ExitCode::SUCCESS
     } else {
         console::err("struck: the standalone stopped with an error (see the messages above)");

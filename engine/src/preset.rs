@@ -304,10 +304,11 @@ fn known_fields(name: &str, section: &Value, defaults: &Value) -> Result<(), Pre
 }
 
 /// The factory presets' JSON, in the order they are listed.
-const FACTORY: [&str; 17] = [
+const FACTORY: [&str; 18] = [
     include_str!("../presets/piano-concert.json"),
     include_str!("../presets/piano-mellow.json"),
     include_str!("../presets/piano-bright.json"),
+    include_str!("../presets/piano-stage-mono.json"),
     include_str!("../presets/fortepiano-viennese.json"),
     include_str!("../presets/fortepiano-moderator.json"),
     include_str!("../presets/santoor-classical.json"),

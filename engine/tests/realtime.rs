@@ -151,7 +151,10 @@ fn random_settings(rng: &mut Rng, fs: f64) -> InstrumentSettings {
         voicing,
         sample_rate_hz: fs,
         tuning,
-        mics: MicPlacement { perspective: Perspective::ALL[rng.below(3) as usize], width: extreme(rng, 0.0, 1.0) },
+        mics: MicPlacement {
+            perspective: Perspective::ALL[rng.below(Perspective::ALL.len() as u64) as usize],
+            width: extreme(rng, 0.0, 1.0),
+        },
         strings_on_body: rng.below(2) == 0,
     }
 }

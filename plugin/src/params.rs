@@ -300,17 +300,23 @@ pub enum PerspectiveChoice {
     #[id = "lid"]
     #[name = "Lid"]
     Lid,
+    // Appended: a saved session names the choice by its id (an older one by
+    // its index), and the first three keep both.
+    #[id = "coincident"]
+    #[name = "Coincident"]
+    Coincident,
 }
 
 impl PerspectiveChoice {
-    pub const ALL: [PerspectiveChoice; 3] =
-        [PerspectiveChoice::Close, PerspectiveChoice::Player, PerspectiveChoice::Lid];
+    pub const ALL: [PerspectiveChoice; 4] =
+        [PerspectiveChoice::Close, PerspectiveChoice::Player, PerspectiveChoice::Lid, PerspectiveChoice::Coincident];
 
     pub fn perspective(self) -> Perspective {
         match self {
             PerspectiveChoice::Close => Perspective::Close,
             PerspectiveChoice::Player => Perspective::Player,
             PerspectiveChoice::Lid => Perspective::Lid,
+            PerspectiveChoice::Coincident => Perspective::Coincident,
         }
     }
 
@@ -319,6 +325,7 @@ impl PerspectiveChoice {
             Perspective::Close => PerspectiveChoice::Close,
             Perspective::Player => PerspectiveChoice::Player,
             Perspective::Lid => PerspectiveChoice::Lid,
+            Perspective::Coincident => PerspectiveChoice::Coincident,
         }
     }
 }

@@ -284,6 +284,26 @@ mod tests {
         (params, saved)
     }
 
+    /// A session saved before the coincident pair was added loads its
+    /// microphones as they were, named by id or by index; the coincident
+    /// pair saves and loads as the others do.
+    #[test]
+    fn a_saved_microphone_choice_loads_where_it_was() {
+        use struck_engine::body::soundboard::Perspective;
+        let ids = ["close", "player", "lid", "coincident"];
+        assert_eq!(<crate::params::PerspectiveChoice as Enum>::ids(), Some(&ids[..]));
+        for (index, (id, perspective)) in ids.into_iter().zip(Perspective::ALL).enumerate() {
+            for value in [ParamValue::String(id.to_string()), ParamValue::I32(index as i32)] {
+                let mut state = default_state();
+                state.params.insert("mic".to_string(), value);
+                assert!(repair(&mut state).is_empty(), "{id}");
+                let (params, shown) = apply_and_save(&state);
+                assert_eq!(params.mics().perspective, perspective, "{id}");
+                assert!(shown["mic"].starts_with(id), "{}", shown["mic"]);
+            }
+        }
+    }
+
     #[test]
     fn a_sound_state_is_left_as_it_is() {
         let mut state = default_state();

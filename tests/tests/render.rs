@@ -667,7 +667,7 @@ fn refuses_bad_arguments() {
         (&["--temperament", "scala"], "--temperament: scala needs a scale"),
         (&["--scl", "no-such-scale.scl"], "--scl no-such-scale.scl: cannot read"),
         (&["--output", "speakers"], "--output speakers: expected mics or bridge"),
-        (&["--mics", "under"], "--mics under: expected close, player or lid"),
+        (&["--mics", "under"], "--mics under: expected close, player, lid or coincident"),
     ] {
         assert_refused(&scratch, &song, args, named);
     }

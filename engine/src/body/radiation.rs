@@ -121,6 +121,112 @@ fn rayleigh_sum(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
     p.norm() * (p.re + p.im).signum()
 }
 
+/// What a pair of microphones hears of the body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MicPair {
+    /// Two pressure (omnidirectional) microphones apart, left then right.
+    Spaced([MicPosition; 2]),
+    /// Mid-side from one point (Blumlein's coincident pair): an
+    /// omnidirectional capsule, the mid, and a figure-8 across it facing
+    /// `left` (a unit vector in the board's plane, metres per metre along x
+    /// and y), the side, at `side_gain` of the mid's sensitivity; left is mid
+    /// plus side, right mid minus side. Their sum is the mid alone, so nothing
+    /// comb-filters in mono.
+    MidSide { at: MicPosition, left: (f64, f64), side_gain: f64 },
+}
+
+impl MicPair {
+    /// Sound pressure (or the figure-8's output, in pascals of a sound from
+    /// straight ahead of it) at the left and right outputs per unit modal
+    /// acceleration of `mode` (see [`pressure_per_acceleration`]).
+    pub fn weights(&self, plate: &Plate, mode: &BodyMode) -> [f64; 2] {
+        match *self {
+            MicPair::Spaced(mics) => mics.map(|mic| pressure_per_acceleration(plate, mode, mic)),
+            MicPair::MidSide { at, left, side_gain } => {
+                let mid = pressure_per_acceleration(plate, mode, at);
+                let side = side_gain * figure_8_per_acceleration(plate, mode, at, left);
+                [mid + side, mid - side]
+            }
+        }
+    }
+}
+
+/// A figure-8 (pressure-gradient) capsule's output at `mic`, facing `toward`
+/// (a unit vector in the board's plane), per unit modal acceleration of
+/// `mode`, Pa s^2/m: the gradient of Rayleigh's integral along `toward`
+/// divided by i k, so that a plane wave from straight ahead gives its pressure
+/// and one from an angle theta off the axis cos(theta) of it, as a ribbon's or
+/// a double-diaphragm capsule's output does (Olson, *Acoustical Engineering*,
+/// 1957, ch. 8). Close to the board the gradient's 1 / (i k R) term is the
+/// capsule's proximity effect, the bass lift every figure-8 has near its
+/// source. The output is taken to the real weight by the same quarter-period
+/// turn as the pressure at the same point ([`pressure_per_acceleration`]),
+/// so that the side keeps its phase against the mid.
+pub fn figure_8_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPosition, toward: (f64, f64)) -> f64 {
+    let key = [
+        plate.length_m,
+        plate.width_m,
+        mode.frequency_hz,
+        f64::from(mode.m),
+        f64::from(mode.n),
+        mic.x_m,
+        mic.y_m,
+        mic.height_m,
+        toward.0,
+        toward.1,
+    ];
+    FIGURE_8.get_or(key, || {
+        let (p, gradient) = rayleigh_sums(plate, mode, mic, toward);
+        let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
+        let s = gradient / Complex64::new(0.0, k.max(1e-9));
+        // The pressure's own turn to a real weight (its sign with it).
+        let turn = if p.norm() > 0.0 { p.conj() / p.norm() * (p.re + p.im).signum() } else { Complex64::new(1.0, 0.0) };
+        let turned = s * turn;
+        s.norm() * if turned.re < 0.0 { -1.0 } else { 1.0 }
+    }) * mode.net_volume
+}
+
+/// Rayleigh's integral at `mic` and its gradient along `toward`, both with
+/// the travel time from the board's middle taken out, as [`rayleigh_sum`]
+/// takes them: d/du (e^{-i k R} / R) = -(i k + 1 / R) (R_u / R) e^{-i k R} / R.
+fn rayleigh_sums(plate: &Plate, mode: &BodyMode, mic: MicPosition, toward: (f64, f64)) -> (Complex64, Complex64) {
+    let (m, n) = (mode.m, mode.n);
+    let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
+    let (length, width) = (plate.length_m, plate.width_m);
+    let cells = |side: f64, half_waves: u32| {
+        let by_shape = 4.0 * f64::from(half_waves);
+        let by_sound = 4.0 * side * k / (2.0 * PI);
+        (by_shape.max(by_sound).max(MIN_CELLS).ceil() as usize).min(MAX_CELLS)
+    };
+    let (nx, ny) = (cells(length, m), cells(width, n));
+    let (dx, dy) = (length / nx as f64, width / ny as f64);
+    let shape_x: Vec<(f64, f64)> = (0..nx)
+        .map(|i| {
+            let x = (i as f64 + 0.5) * dx;
+            (x, (f64::from(m) * PI * x / length).sin())
+        })
+        .collect();
+    let (mut sum, mut gradient) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0));
+    for j in 0..ny {
+        let y = (j as f64 + 0.5) * dy;
+        let shape_y = (f64::from(n) * PI * y / width).sin();
+        // From the element to the microphone.
+        let (ry, h2) = (mic.y_m - y, mic.height_m * mic.height_m);
+        for &(x, shape) in &shape_x {
+            let rx = mic.x_m - x;
+            let r = (rx * rx + ry * ry + h2).sqrt().max(MIN_DISTANCE_M);
+            let wave = Complex64::from_polar(shape * shape_y / r, -k * r);
+            sum += wave;
+            let along = (rx * toward.0 + ry * toward.1) / r;
+            gradient -= Complex64::new(1.0 / r, k) * along * wave;
+        }
+    }
+    let (cx, cy) = (mic.x_m - length / 2.0, mic.y_m - width / 2.0);
+    let from_middle = (cx * cx + cy * cy + mic.height_m * mic.height_m).sqrt();
+    let scale = (AIR_DENSITY_KG_M3 / (2.0 * PI) * dx * dy) * Complex64::from_polar(1.0, k * from_middle);
+    (sum * scale, gradient * scale)
+}
+
 /// The loss factor a plate mode adds by what it radiates from one side of its
 /// baffle: eta = P / (omega E), with E = M v^2 / 2 its energy at peak velocity
 /// v and P the power its far field carries through the hemisphere,
@@ -210,6 +316,8 @@ impl<const N: usize> Memo<N> {
 static RADIATED: Memo<6> = Memo::new();
 /// Each mode's weight at a microphone, by board, mode and microphone.
 static HEARD: Memo<8> = Memo::new();
+/// Each mode's weight at a figure-8, by board, mode, microphone and facing.
+static FIGURE_8: Memo<10> = Memo::new();
 /// The most figures a memo keeps before it starts again.
 const MEMO_KEPT: usize = 20_000;
 
@@ -291,6 +399,42 @@ mod tests {
         let (piston, high) = (gain(1, 1, 80.0), gain(7, 5, 1500.0));
         assert!(piston.abs() < 2.0, "the (1, 1) piston near: {piston:.1} dB off the far field's");
         assert!(high > 10.0, "a 1.5 kHz mode near: {high:.1} dB over the far field's");
+    }
+
+    /// Far away a figure-8 hears the pressure times the cosine of the angle
+    /// between its axis and the board (within 0.3 dB, the same sign), and
+    /// nothing square to it; over the board's middle it hears a mode odd both
+    /// ways (no gradient there) not at all.
+    #[test]
+    fn a_figure_8_hears_the_cosine_of_the_pressure_far_away() {
+        let board = design(InstrumentKind::Piano);
+        let plate = &board.plate;
+        let mode = |m: u32, n: u32, frequency_hz: f64| BodyMode {
+            frequency_hz,
+            loss_factor: 0.02,
+            modal_mass_kg: 1.0,
+            m,
+            n,
+            net_volume: 1.0,
+        };
+        let (a, b) = (plate.length_m, plate.width_m);
+        let far = MicPosition { x_m: 0.5 * a + 12.0, y_m: 0.5 * b - 7.0, height_m: 26.0 };
+        let r = (12.0f64 * 12.0 + 7.0 * 7.0 + 26.0 * 26.0).sqrt();
+        for (m, n, f) in [(1, 1, 80.0), (3, 1, 113.0), (2, 3, 400.0), (5, 3, 1000.0)] {
+            let mode = mode(m, n, f);
+            let p = pressure_per_acceleration(plate, &mode, far);
+            // Facing the board along x: the board lies 12 m that way.
+            let toward = figure_8_per_acceleration(plate, &mode, far, (-1.0, 0.0));
+            let want = 12.0 / r * p;
+            let db = 20.0 * (toward / want).abs().log10();
+            assert!(db.abs() < 0.3 && toward * want > 0.0, "({m}, {n}) at {f} Hz: {toward} against {want}");
+            let away = figure_8_per_acceleration(plate, &mode, far, (1.0, 0.0));
+            assert!((away + toward).abs() < 1e-9 * toward.abs().max(1e-30), "({m}, {n}): facing away");
+        }
+        let middle = MicPosition { x_m: 0.5 * a, y_m: 0.5 * b, height_m: 0.7 };
+        let piston = mode(1, 1, 80.0);
+        let side = figure_8_per_acceleration(plate, &piston, middle, (1.0, 0.0));
+        assert!(side.abs() < 1e-6 * pressure_per_acceleration(plate, &piston, middle).abs());
     }
 
     #[test]

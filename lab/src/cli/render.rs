@@ -100,7 +100,7 @@ pub struct RenderArgs {
     /// [default: the preset's, else mics]
     #[arg(long, value_name = "mics|bridge")]
     pub output: Option<String>,
-    /// Where the microphones listen from: close|player|lid [default: the preset's, else close]
+    /// Where the microphones listen from: close|player|lid|coincident [default: the preset's, else close]
     #[arg(long, value_name = "NAME")]
     pub mics: Option<String>,
     /// Play channel 10 too (ignored by default: General MIDI keeps drums there).
@@ -179,7 +179,7 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
         mics.perspective = Perspective::ALL
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(name))
-            .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player or lid")))?;
+            .ok_or_else(|| Failure::bad_input(format!("--mics {name}: expected close, player, lid or coincident")))?;
     }
     let settings =
         Preset { instrument: Some(kind), tuning, mics, controls, ..preset.clone() }.settings(f64::from(sample_rate_hz));

@@ -260,6 +260,7 @@ mod tests {
     use nice_plug::context::gui::{GuiContext, GuiContextInner};
 
     use super::*;
+    use struck_engine::body::soundboard::Perspective;
 
     /// A host that sets what the panel asks it to set, as a real one does.
     struct Host;
@@ -330,8 +331,12 @@ mod tests {
             assert!(level_db.abs() <= 0.05, "{what}: {level_db} dB");
             assert!(close(saved.tuning.a4_hz, preset.tuning.a4_hz), "{what}");
             assert_eq!(saved.tuning.temperament, preset.tuning.temperament, "{what}");
+            assert_eq!(saved.mics.perspective, preset.mics.perspective, "{what}");
             assert!(Preset::parse(&saved.to_json()).is_ok(), "{what}");
         }
+        // The stage piano listens through the coincident pair, which keeps it whole in mono.
+        let stage = factory_presets().into_iter().filter(|p| p.mics.perspective == Perspective::Coincident).count();
+        assert!(stage >= 1, "no factory preset chooses the coincident pair");
     }
 
     #[test]

@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use super::boards::{BodyDesign, MAX_ZONES};
 use super::plate::{BodyMode, shape_at};
-use super::radiation::{MicPosition, pressure_per_acceleration};
+use super::radiation::{MicPair, MicPosition};
 use crate::CONTROL_BLOCK;
 use crate::modal_bank;
 
@@ -67,16 +67,22 @@ pub enum Perspective {
     Player,
     /// Above the open lid, on the far side from the player.
     Lid,
+    /// A mid-side pair at one point over the board: it keeps its whole sound
+    /// when the stereo pair is summed to mono (a stage's or a broadcast's
+    /// mono feed), where a spaced pair comb-filters.
+    Coincident,
 }
 
 impl Perspective {
-    pub const ALL: [Perspective; 3] = [Perspective::Close, Perspective::Player, Perspective::Lid];
+    pub const ALL: [Perspective; 4] =
+        [Perspective::Close, Perspective::Player, Perspective::Lid, Perspective::Coincident];
 
     pub fn name(self) -> &'static str {
         match self {
             Perspective::Close => "close",
             Perspective::Player => "player",
             Perspective::Lid => "lid",
+            Perspective::Coincident => "coincident",
         }
     }
 }
@@ -103,8 +109,14 @@ impl MicPlacement {
     /// and "beyond" lie across it (v). Close: 0.7 m over the board's middle,
     /// as far apart as the bridges' run (at least 0.4 m). Player: 0.6 m apart,
     /// 0.9 m up, half a metre in front of the board's edge. Lid: 1 m apart,
-    /// 1.6 m up, 0.3 m beyond the far edge.
-    pub fn positions(&self, board: &BodyDesign) -> [MicPosition; 2] {
+    /// 1.6 m up, 0.3 m beyond the far edge. Coincident: one point 0.7 m over
+    /// the bridge where the middle key bears, its figure-8 along u (the width
+    /// scales the side). Not over the board's middle: the equivalent
+    /// rectangle's modes are exactly symmetric or antisymmetric about it, and
+    /// an omnidirectional capsule there would hear only the modes odd both
+    /// ways (at full side gain the cimbalom's A#3 lost 14 dB in mono there,
+    /// 3.5 over the bridge).
+    pub fn positions(&self, board: &BodyDesign) -> MicPair {
         let (lo, hi) = (*board.keys.start(), *board.keys.end());
         let (a, b) = (board.plate.length_m, board.plate.width_m);
         let (bass, treble) = (board.bridge_point(lo), board.bridge_point(hi));
@@ -118,6 +130,12 @@ impl MicPlacement {
             Perspective::Close => (0.0, 0.7, run.max(PAIR_SPACING_M)),
             Perspective::Player => (-(across + 0.5), 0.9, 0.6),
             Perspective::Lid => (across + 0.3, 1.6, 1.0),
+            Perspective::Coincident => {
+                let (x, y) = board.bridge_point(board.middle_key());
+                let at = MicPosition { x_m: x * a, y_m: y * b, height_m: COINCIDENT_HEIGHT_M };
+                let side_gain = COINCIDENT_SIDE_GAIN * self.width.clamp(0.0, 1.0);
+                return MicPair::MidSide { at, left: (-u.0, -u.1), side_gain };
+            }
         };
         let half = 0.5 * self.width.clamp(0.0, 1.0) * spacing;
         let place = |side: f64| MicPosition {
@@ -125,7 +143,7 @@ impl MicPlacement {
             y_m: 0.5 * b + offset * v.1 + side * half * u.1,
             height_m: height,
         };
-        [place(-1.0), place(1.0)]
+        MicPair::Spaced([place(-1.0), place(1.0)])
     }
 }
 
@@ -134,6 +152,19 @@ impl MicPlacement {
 /// middle reach the two microphones in opposite phase and a note on one of them
 /// all but cancels in mono (the santoor's A#4 lost 4.9 dB at 0.8 m, 2.5 at 0.4).
 pub const PAIR_SPACING_M: f64 = 0.4;
+
+/// The coincident pair's height over the board, m: the close pair's.
+pub const COINCIDENT_HEIGHT_M: f64 = 0.7;
+/// The coincident pair's side (figure-8) against its mid (omnidirectional)
+/// at full width, -8 dB: left and right are then two wide subcardioids from
+/// one point, facing the bass and the treble ends. Mono keeps a note's mid
+/// and loses its side, 10 log10(1 + g^2 S^2 / M^2) dB: where a note's few
+/// partials meet a weak spot of the mid's (a node of the modes that carry
+/// them) its side can be five times the mid in power (the harpsichord's A#2,
+/// the cimbalom's B2), and at 0.4 no note of any instrument loses more than
+/// 2.5 dB (engine/tests/body.rs); a wider side would lose more there, and
+/// the widest (1: two cardioids back to back) lost 7.6 dB.
+pub const COINCIDENT_SIDE_GAIN: f64 = 0.4;
 
 /// Everything the running body needs, built off the audio thread.
 #[derive(Clone)]
@@ -194,7 +225,7 @@ impl Soundboard {
         board: &BodyDesign,
         sample_rate_hz: f64,
         zone_points: &[(f64, f64)],
-        mics: [MicPosition; 2],
+        mics: MicPair,
         gain: f64,
     ) -> Self {
         let h = 1.0 / sample_rate_hz;
@@ -501,13 +532,7 @@ impl Soundboard {
 }
 
 /// `mode`'s pole, zone drives and microphone weights at sample step `h`.
-fn plan(
-    board: &BodyDesign,
-    mode: &BodyMode,
-    zone_points: &[(f64, f64)],
-    mics: [MicPosition; 2],
-    h: f64,
-) -> PlannedMode {
+fn plan(board: &BodyDesign, mode: &BodyMode, zone_points: &[(f64, f64)], mics: MicPair, h: f64) -> PlannedMode {
     let omega = 2.0 * PI * mode.frequency_hz;
     let sigma = 0.5 * mode.loss_factor * omega;
     let omega_d = omega * (1.0 - (0.5 * mode.loss_factor).powi(2)).sqrt();
@@ -524,8 +549,7 @@ fn plan(
     }
     let mut out = [Complex64::new(0.0, 0.0); 2];
     let mut direct = [[0.0; MAX_ZONES]; 2];
-    for (mic, position) in mics.iter().enumerate() {
-        let c = pressure_per_acceleration(&board.plate, mode, *position);
+    for (mic, c) in mics.weights(&board.plate, mode).into_iter().enumerate() {
         out[mic] = c * lambda * lambda;
         // The force's direct share, Re(c lambda g) per unit shape: with the
         // state settling at -g F / lambda under a steady push, the two cancel.
@@ -575,9 +599,9 @@ pub struct HeardModes {
 
 impl HeardModes {
     /// `board`'s running modes up to `top_hz`, heard at `mics`.
-    pub fn new(board: &BodyDesign, top_hz: f64, mics: [MicPosition; 2]) -> Self {
+    pub fn new(board: &BodyDesign, top_hz: f64, mics: MicPair) -> Self {
         let modes = board.running_modes(top_hz);
-        let radiation = modes.iter().map(|m| mics.map(|mic| pressure_per_acceleration(&board.plate, m, mic))).collect();
+        let radiation = modes.iter().map(|m| mics.weights(&board.plate, m)).collect();
         Self { modes, radiation }
     }
 

@@ -9,6 +9,7 @@ use super::*;
 pub(super) const MAX_VOICING_THREADS: usize = 8;
 
 /// Every key of one instrument, built for one sample rate.
+#[derive(Clone)]
 pub struct Instrument {
     pub(super) settings: InstrumentSettings,
     /// The courses, each at the index of the MIDI key it is listed under.
@@ -28,8 +29,24 @@ pub struct Instrument {
 }
 
 impl Instrument {
-    /// Build every key's tables. Allocates; takes tens of milliseconds.
+    /// Build every key's tables. Allocates; off the audio thread. The same
+    /// settings built again (a host activating the plugin again, a preset
+    /// chosen again) come from [`built`]'s few instruments kept as built, a
+    /// copy in milliseconds; anything else is built afresh
+    /// ([`Self::build_afresh`]), which takes up to seconds.
     pub fn build(settings: &InstrumentSettings) -> Result<Self, BuildError> {
+        if let Some(instrument) = built::find(settings) {
+            return Ok(instrument);
+        }
+        let instrument = Self::build_afresh(settings)?;
+        built::keep(settings, &instrument);
+        Ok(instrument)
+    }
+
+    /// [`Self::build`] without looking among the instruments kept as built
+    /// (nor keeping this one): every key's tables, the body and the voicing
+    /// worked out anew.
+    pub fn build_afresh(settings: &InstrumentSettings) -> Result<Self, BuildError> {
         let fs = settings.sample_rate_hz;
         if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
             return Err(BuildError::SampleRate(fs));

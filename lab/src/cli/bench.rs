@@ -292,14 +292,14 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
             let (afresh_s, again_s) = perf::build_times(kind, rate, runs);
             let khz = rate / 1000.0;
             let limit = build_max_s(rate);
-            let pass = goals.check(format!("build.{}.{}.afresh", kind.name(), rate as u32), afresh_s, AtMost, limit);
+            let pass = goals.check(format!("build_{}_{}_afresh", kind.name(), rate as u32), afresh_s, AtMost, limit);
             out.goal(
                 &format!("{} at {khz} kHz, afresh", kind.name()),
                 format!("{:.1} ms", 1e3 * afresh_s),
                 format!("<= {:.0} ms", 1e3 * limit),
                 pass,
             );
-            let pass = goals.check(format!("build.{}.{}.again", kind.name(), rate as u32), again_s, AtMost, limit);
+            let pass = goals.check(format!("build_{}_{}_again", kind.name(), rate as u32), again_s, AtMost, limit);
             out.goal(
                 &format!("{} at {khz} kHz, again", kind.name()),
                 format!("{:.1} ms", 1e3 * again_s),

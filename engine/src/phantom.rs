@@ -153,6 +153,7 @@ impl PhantomTable {
 /// A key's phantom partials in play: the products set each control block and
 /// turning by their poles, packed in groups of [`LANES`] for the modes' own
 /// free kernel. Real-time safe once built.
+#[derive(Clone)]
 pub struct Phantom {
     table: PhantomTable,
     re: Vec<f64>,

@@ -220,6 +220,29 @@ pub fn synth_throughput(kind: struck_engine::design::InstrumentKind, audio_s: f6
     SynthThroughput { real_time_factor: blocks as f64 * BLOCK as f64 / 48_000.0 / elapsed, max_keys, build_s }
 }
 
+/// How long building `kind`'s instrument at `sample_rate_hz` takes, s: afresh
+/// (the instruments kept as built forgotten first), and again with the same
+/// settings (a copy of the one kept), the fastest of `runs` (at least 1).
+pub fn build_times(kind: struck_engine::design::InstrumentKind, sample_rate_hz: f64, runs: usize) -> (f64, f64) {
+    use struck_engine::synth::{Instrument, built, default_settings};
+    let settings = default_settings(kind, sample_rate_hz);
+    built::forget();
+    let start = Instant::now();
+    let instrument = Instrument::build(&settings).expect("the built-in instruments build");
+    let afresh_s = start.elapsed().as_secs_f64();
+    // Dropped after the clock stops, as a host drops the one it replaces.
+    drop(instrument);
+    let mut again_s = f64::INFINITY;
+    for _ in 0..runs.max(1) {
+        let start = Instant::now();
+        let instrument = Instrument::build(&settings).expect("the built-in instruments build");
+        again_s = again_s.min(start.elapsed().as_secs_f64());
+        drop(instrument);
+    }
+    built::forget();
+    (afresh_s, again_s)
+}
+
 /// Independent multiply-add chains in the probe, each as wide as one vector
 /// register of the target (8 f64 lanes with AVX-512, 4 with AVX2, 2 with NEON
 /// and SSE): enough to cover the latency of every FMA unit (4 cycles x 2 units

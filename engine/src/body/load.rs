@@ -66,21 +66,61 @@ pub struct BoardLoad<'a> {
     waves: Vec<Option<plate::BeamWave>>,
 }
 
+/// What a board's admittance is worked out from: its modes carried one by
+/// one, and the continuum's table above them (see [`BoardLoad`]). It depends on
+/// the board's design only (not on the sample rate, nor on the irregularity).
+#[derive(Clone)]
+struct Admittance {
+    modes: Vec<BodyMode>,
+    residual: Vec<(f64, f64)>,
+    waves: Vec<Option<plate::BeamWave>>,
+}
+
+/// How many boards' [`Admittance`]s are kept (a few sizes of each body).
+const KEPT_BOARDS: usize = 8;
+
+/// `board`'s [`Admittance`]: worked out once per design and kept (the last
+/// [`KEPT_BOARDS`] designs), as building an instrument at each of a host's
+/// sample rates, or again, asks for the same board's (tens to hundreds of
+/// milliseconds each). Off the audio thread, where instruments are built.
+fn admittance(board: &BodyDesign) -> Admittance {
+    use std::sync::{Mutex, OnceLock};
+    static KEPT: OnceLock<Mutex<Vec<(String, Admittance)>>> = OnceLock::new();
+    // Every field of the design by its exact value (the shortest decimal
+    // that reads back to the same bits).
+    let key = format!("{board:?}");
+    let kept = KEPT.get_or_init(|| Mutex::new(Vec::new()));
+    // (A thread that panicked holding the lock left the list whole.)
+    if let Some((_, found)) = kept.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == key) {
+        return found.clone();
+    }
+    let top = board.plate.inter_rib_hz().unwrap_or(EXPLICIT_TOP_HZ).min(EXPLICIT_TOP_HZ);
+    let modes = board.modes(top);
+    let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
+    let residual = (0..points)
+        .map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp()))
+        .collect();
+    let frequency = |i: usize| TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp();
+    let waves = match board.bridge_beam() {
+        Some((ei, rho_a)) => (0..points).map(|i| plate::beam_wave(&board.plate, ei, rho_a, frequency(i))).collect(),
+        None => Vec::new(),
+    };
+    let admittance = Admittance { modes, residual, waves };
+    let mut kept = kept.lock().unwrap_or_else(|e| e.into_inner());
+    if !kept.iter().any(|(k, _)| *k == key) {
+        if kept.len() >= KEPT_BOARDS {
+            kept.remove(0);
+        }
+        kept.push((key, admittance.clone()));
+    }
+    admittance
+}
+
 impl<'a> BoardLoad<'a> {
     /// The admittance of `board`, its resonances weighted by `irregularity`
     /// (0..=1). Allocates; off the audio thread (a few milliseconds).
     pub fn new(board: &'a BodyDesign, irregularity: f64) -> Self {
-        let top = board.plate.inter_rib_hz().unwrap_or(EXPLICIT_TOP_HZ).min(EXPLICIT_TOP_HZ);
-        let modes = board.modes(top);
-        let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
-        let residual = (0..points)
-            .map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp()))
-            .collect();
-        let frequency = |i: usize| TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp();
-        let waves = match board.bridge_beam() {
-            Some((ei, rho_a)) => (0..points).map(|i| plate::beam_wave(&board.plate, ei, rho_a, frequency(i))).collect(),
-            None => Vec::new(),
-        };
+        let Admittance { modes, residual, waves } = admittance(board);
         Self { board, modes, residual, irregularity: irregularity.clamp(0.0, 1.0), waves }
     }
 

@@ -73,6 +73,7 @@ impl BridgePoint {
 /// When some key is placed in the stereo image of its own (a note's pan), the
 /// zones are summed twice, once as each microphone is to hear them (`split`).
 /// Real-time safe.
+#[derive(Clone)]
 pub struct Bridge {
     out: [[f64; CONTROL_BLOCK]; 2],
     zones: [[f64; CONTROL_BLOCK]; MAX_ZONES],

@@ -55,6 +55,7 @@ impl ContactObserver for () {
 // One per string, built with it: boxing the hammer's rig would cost a pointer
 // chase every sample for memory that is not scarce.
 #[allow(clippy::large_enum_variant)]
+#[derive(Clone)]
 pub enum Exciter {
     /// None set up yet.
     None,

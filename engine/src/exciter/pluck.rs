@@ -30,7 +30,7 @@ impl PluckSpec {
 }
 
 /// A plucking point's tables, and whether the string was just let go there.
-#[derive(PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct PluckRig {
     position: f64,
     /// Observes the string at the plucking point (it drives nothing: a pluck is an

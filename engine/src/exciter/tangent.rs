@@ -103,6 +103,7 @@ impl TangentMotion {
 }
 
 /// What a tangent at the string's far end needs.
+#[derive(Clone)]
 struct TangentTables {
     /// [`TangentSpec::modal_gain`] of every mode.
     gains: Vec<f64>,
@@ -130,6 +131,7 @@ impl TangentState {
 }
 
 /// A tangent's tables at the string's far end, and its state while it is on the string.
+#[derive(Clone)]
 pub struct TangentRig {
     tables: TangentTables,
     state: Option<TangentState>,

@@ -227,6 +227,7 @@ impl Key {
 /// 1); the loudest mode of its strings then, N (0 while one is played);
 /// control ticks until its strings are culled again (0: at the next), and
 /// what the last culling found (their bound and loudest mode, N).
+#[derive(Clone)]
 pub(super) struct Cull {
     pub(super) level: f64,
     pub(super) loudest_n: f64,

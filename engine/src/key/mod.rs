@@ -79,6 +79,7 @@ pub const MAX_BEBUNG_CENTS: f64 = 100.0;
 const RETUNE_THRESHOLD: f64 = 1.0e-6;
 
 /// One way of playing the course.
+#[derive(Clone)]
 struct Note {
     midi_key: u8,
     /// The strings its exciter reaches.
@@ -196,6 +197,7 @@ impl Default for ActionNoise {
 /// A course of strings and everything that plays it: its notes (the ways
 /// into it), the strike, the damper, the unison's trading, the phantom
 /// products, the action's sounds, and the player's hold on it.
+#[derive(Clone)]
 pub(crate) struct Key {
     /// The MIDI key the course is listed under (its first note).
     midi_key: u8,
@@ -259,6 +261,7 @@ pub(crate) struct Key {
 /// Finger pressure 0..=1 (aftertouch) and its smoothed value; how far full
 /// pressure raises a tangent's pitch, cents, and the tension's factor that
 /// makes it (the pitch's squared).
+#[derive(Clone)]
 struct Finger {
     pressure: f64,
     pressure_now: f64,
@@ -280,6 +283,7 @@ struct Trim {
 /// Its own hammer over the voicing (felt stiffness and strike position
 /// factors, [`Key::set_hammer`]), and the player's voicing over the one the
 /// key was built with ([`Key::set_live_voicing`]).
+#[derive(Clone)]
 struct OwnVoicing {
     hardness: f64,
     position: f64,

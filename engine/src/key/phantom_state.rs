@@ -20,6 +20,7 @@ const PHANTOM_REFRESH_BLOCKS: usize = 16;
 
 /// The products of one key's strings (none above the last phantom key or off
 /// the body), and their state.
+#[derive(Clone)]
 pub(super) struct PhantomState {
     products: Option<Phantom>,
     /// Whether any product is over the cull floor this block.

@@ -145,6 +145,7 @@ impl Key {
 /// once and run on over a control block's stretches, and handed back
 /// ([`Key::settle`]) before anything else reads or moves them. Which strings
 /// ran free, and their bridge force by lane.
+#[derive(Clone)]
 pub(super) struct FreeRun {
     pub(super) gather: FreeGather,
     pub(super) gathered: Vec<Option<usize>>,

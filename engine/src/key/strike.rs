@@ -264,6 +264,7 @@ pub(crate) fn regulated(table: &[(f64, f64)], value: f64) -> f64 {
 /// even), and whether they are held in the player's hand (they meet the
 /// strings differently at each stroke: the shares turn by a string), with
 /// the strokes so far.
+#[derive(Clone)]
 pub(super) struct StrikeShares {
     pub(super) shares: Vec<f64>,
     pub(super) hand_held: bool,
@@ -273,6 +274,7 @@ pub(super) struct StrikeShares {
 /// Its regulation: the gain of a strike by its touch (empty: 1), the gain
 /// now and where it glides to (the last strike's), and the glide's step a
 /// sample ([`STRIKE_GAIN_GLIDE_S`]).
+#[derive(Clone)]
 pub(super) struct Regulation {
     pub(super) table: Vec<(f64, f64)>,
     pub(super) gain: f64,
@@ -284,6 +286,7 @@ pub(super) struct Regulation {
 /// hammer key), whether its strings bear on the body (not the seed's rigid
 /// bridge), the bed's pulse in play (samples since the key bottomed, hammer
 /// speed), the pulse at its sample rate, and the sounds' levels.
+#[derive(Clone)]
 pub(super) struct ActionSounds {
     pub(super) key_bed: bool,
     pub(super) on_body: bool,

@@ -94,6 +94,7 @@ impl Key {
 /// body move each partial: the share that differs from the strings' mean by
 /// alpha, the mean by beta (empty: strings not coupled so), and the control
 /// blocks since the unison last traded.
+#[derive(Clone)]
 pub(super) struct Unison {
     pub(super) steps: Vec<(Complex64, Complex64)>,
     pub(super) blocks_since_trade: usize,
@@ -102,6 +103,7 @@ pub(super) struct Unison {
 /// Re Y of the shared bridge point (0: strings not coupled), the share of
 /// it the strings trade at sample by sample ([`COURSE_LOOP_LIMIT`]), the
 /// force each string put on it last sample, and scratch for this sample's.
+#[derive(Clone)]
 pub(super) struct CourseBridge {
     pub(super) coupling_s_kg: f64,
     pub(super) share: f64,

@@ -36,6 +36,7 @@ pub const BENT_TOP: f64 = 0.45;
 /// The tables an exciter needs at a given point are built by the `prepare_*`
 /// methods (allocating); once prepared, striking, pressing and plucking there
 /// allocate nothing, so a key can be played from the audio thread.
+#[derive(Clone)]
 pub struct StruckString {
     string: StringModes,
     bank: ModalBank,

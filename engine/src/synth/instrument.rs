@@ -9,6 +9,7 @@ use super::*;
 pub(super) const MAX_VOICING_THREADS: usize = 8;
 
 /// Every key of one instrument, built for one sample rate.
+#[derive(Clone)]
 pub struct Instrument {
     pub(super) settings: InstrumentSettings,
     /// The courses, each at the index of the MIDI key it is listed under.
@@ -28,8 +29,24 @@ pub struct Instrument {
 }
 
 impl Instrument {
-    /// Build every key's tables. Allocates; takes tens of milliseconds.
+    /// Build every key's tables. Allocates; off the audio thread. The same
+    /// settings built again (a host activating the plugin again, a preset
+    /// chosen again) come from [`built`]'s few instruments kept as built, a
+    /// copy in milliseconds; anything else is built afresh
+    /// ([`Self::build_afresh`]), which takes up to seconds.
     pub fn build(settings: &InstrumentSettings) -> Result<Self, BuildError> {
+        if let Some(instrument) = built::find(settings) {
+            return Ok(instrument);
+        }
+        let instrument = Self::build_afresh(settings)?;
+        built::keep(settings, &instrument);
+        Ok(instrument)
+    }
+
+    /// [`Self::build`] without looking among the instruments kept as built
+    /// (nor keeping this one): every key's tables, the body and the voicing
+    /// worked out anew.
+    pub fn build_afresh(settings: &InstrumentSettings) -> Result<Self, BuildError> {
         let fs = settings.sample_rate_hz;
         if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
             return Err(BuildError::SampleRate(fs));
@@ -50,12 +67,12 @@ impl Instrument {
         let load = settings.strings_on_body.then(|| BoardLoad::new(&board, settings.voicing.board_irregularity));
         let mut keys: Vec<Option<Key>> = (0..128).map(|_| None).collect();
         let mut route = [None; 128];
-        for design in designs {
-            let midi_key = design.midi_key;
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
+        let retuned: Vec<KeyDesign> = designs.into_iter().map(|d| d.retuned(&frequencies_hz)).collect();
+        for (midi_key, built) in build_keys(retuned, fs, settings.kind, load.as_ref(), cores) {
             let moved = (frequencies_hz[midi_key as usize] / key_frequency_hz(midi_key) - 1.0).abs() > 1e-9;
-            let design = design.retuned(&frequencies_hz);
             {
-                match Key::build(design, fs, settings.kind, load.as_ref()) {
+                match built {
                     Ok(key) => {
                         for (note, k) in key.note_keys() {
                             route[k as usize & 127] = Some((midi_key, note as u8));
@@ -95,7 +112,6 @@ impl Instrument {
             (0..128u8).map(|k| body_voicing::partners(&sympathy, &keys, k, &shapes)).collect();
         // Keys are voiced one by one, each from a body at rest: on every core,
         // the keys dealt out in turn (a treble key costs more than a bass one).
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_VOICING_THREADS);
         let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
         for (i, (k, key)) in
             keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate()
@@ -253,6 +269,54 @@ impl Instrument {
 }
 
 /// Report the keys fallen silent in a control block at `time`, as room allows.
+/// Every key of `designs` built ([`Key::build`]), in their order, each with
+/// the MIDI key it is listed under: on `cores` threads, the keys dealt out in
+/// turn; those no thread could be started for are built here, the same.
+fn build_keys(
+    designs: Vec<KeyDesign>,
+    fs: f64,
+    kind: InstrumentKind,
+    load: Option<&BoardLoad>,
+    cores: usize,
+) -> Vec<(u8, Result<Key, StringError>)> {
+    type Built = (usize, u8, Result<Key, StringError>);
+    let build = |hand: Vec<(usize, KeyDesign)>| -> Vec<Built> {
+        hand.into_iter()
+            .map(|(i, design)| {
+                let midi_key = design.midi_key;
+                (i, midi_key, Key::build(design, fs, kind, load))
+            })
+            .collect()
+    };
+    let mut hands: Vec<Vec<(usize, KeyDesign)>> = (0..cores.max(1)).map(|_| Vec::new()).collect();
+    let count = hands.len();
+    for (i, design) in designs.into_iter().enumerate() {
+        hands[i % count].push((i, design));
+    }
+    let mut built: Vec<Built> = std::thread::scope(|scope| {
+        let mut workers = Vec::new();
+        let mut here = Vec::new();
+        for hand in hands {
+            let (give, take) = std::sync::mpsc::channel::<Vec<(usize, KeyDesign)>>();
+            let build = &build;
+            let worker =
+                std::thread::Builder::new().spawn_scoped(scope, move || build(take.recv().unwrap_or_default()));
+            match worker {
+                Ok(worker) => match give.send(hand) {
+                    Ok(()) => workers.push(worker),
+                    Err(std::sync::mpsc::SendError(hand)) => here.push(hand),
+                },
+                Err(_) => here.push(hand),
+            }
+        }
+        let mut built: Vec<Built> = here.into_iter().flat_map(build).collect();
+        built.extend(workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
+        built
+    });
+    built.sort_by_key(|b| b.0);
+    built.into_iter().map(|(_, k, b)| (k, b)).collect()
+}
+
 pub(super) fn push_ended(ended: &mut Vec<KeyEnded>, time: u32, fallen: &Fallen) {
     for &key in fallen.keys() {
         if ended.len() < ended.capacity() {

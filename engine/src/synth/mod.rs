@@ -14,6 +14,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod body_voicing;
+pub mod built;
 mod event;
 pub mod guard;
 mod instrument;

@@ -160,6 +160,34 @@ pub(crate) struct Sympathy {
     block_s: f64,
 }
 
+/// A copy as it stands, with the room its list of slots holding some has
+/// (what the audio thread pushes into never grows: a slot that finds it full
+/// is not held, so a copy with less room would trade differently).
+impl Clone for Sympathy {
+    fn clone(&self) -> Self {
+        let mut holding = Vec::with_capacity(self.holding.capacity());
+        holding.extend_from_slice(&self.holding);
+        Self {
+            count: self.count,
+            budget_used: self.budget_used,
+            by_key: self.by_key.clone(),
+            by_other: self.by_other.clone(),
+            slots: self.slots.clone(),
+            ports: self.ports.clone(),
+            sums: self.sums.clone(),
+            takes: self.takes.clone(),
+            key_slots: self.key_slots.clone(),
+            firsts: self.firsts.clone(),
+            held: self.held.clone(),
+            given_at: self.given_at.clone(),
+            holding,
+            poles: self.poles.clone(),
+            block: self.block,
+            block_s: self.block_s,
+        }
+    }
+}
+
 /// A key's partial, as the pairs are found.
 struct Entry<'a> {
     key: u8,

@@ -6,7 +6,10 @@
 //! and marked PASS or MISS; `--json` writes the same figures as one JSON object
 //! instead, each both nested (`.full_keyboard.load_fraction`) and under its
 //! dotted name (`"full_keyboard.load_fraction"`). A missed goal is reported, not
-//! an error: the exit status is 0 whenever the measurements ran.
+//! an error: the exit status is 0 whenever the measurements ran. Every
+//! instrument's build is timed at 44.1, 48, 96 and 192 kHz, afresh (nothing
+//! kept) and again (a copy of the one kept), against 150 ms up to 48 kHz and
+//! 500 ms above.
 
 use std::time::Duration;
 
@@ -72,6 +75,13 @@ const IDLE_LOAD_MAX: f64 = 0.01;
 /// time, over this much audio (times --seconds, at least 1).
 const AUTOMATED_FACTOR_MIN: f64 = 1.0;
 const AUTOMATED_S: f64 = 10.0;
+/// The rates an instrument's build is timed at, Hz (a host tries them in
+/// turn), and the longest a build may take at each, s: afresh (nothing kept)
+/// and again (the same settings built a moment before).
+const BUILD_RATES_HZ: [f64; 4] = [44_100.0, 48_000.0, 96_000.0, 192_000.0];
+fn build_max_s(sample_rate_hz: f64) -> f64 {
+    if sample_rate_hz <= 48_000.0 { 0.150 } else { 0.500 }
+}
 
 pub fn run(args: &BenchArgs) -> Result<(), Failure> {
     let seconds = args.seconds;
@@ -269,6 +279,41 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
         "in contact (C2 string, {contact_modes} modes, {DEFAULT_SUBSTEPS} sub-steps, implicit felt): {contact_rate:.3e} mode-steps/s, {contact_us_per_sample:.2} us per sample"
     ));
 
+    // Every instrument's build at each rate.
+    out.blank();
+    out.line(
+        "instrument builds: every key's tables, the body and the voicing through it; afresh (nothing kept), and again (a copy of the one kept)"
+            .to_string(),
+    );
+    let mut builds = Map::new();
+    for kind in InstrumentKind::ALL {
+        let mut rates = Map::new();
+        for rate in BUILD_RATES_HZ {
+            let (afresh_s, again_s) = perf::build_times(kind, rate, runs);
+            let khz = rate / 1000.0;
+            let limit = build_max_s(rate);
+            let pass = goals.check(format!("build_{}_{}_afresh", kind.name(), rate as u32), afresh_s, AtMost, limit);
+            out.goal(
+                &format!("{} at {khz} kHz, afresh", kind.name()),
+                format!("{:.1} ms", 1e3 * afresh_s),
+                format!("<= {:.0} ms", 1e3 * limit),
+                pass,
+            );
+            let pass = goals.check(format!("build_{}_{}_again", kind.name(), rate as u32), again_s, AtMost, limit);
+            out.goal(
+                &format!("{} at {khz} kHz, again", kind.name()),
+                format!("{:.1} ms", 1e3 * again_s),
+                format!("<= {:.0} ms", 1e3 * limit),
+                pass,
+            );
+            rates.insert(
+                format!("{}", rate as u32),
+                json!({ "afresh_s": afresh_s, "again_s": again_s, "max_s": limit }),
+            );
+        }
+        builds.insert(kind.name().to_string(), Value::Object(rates));
+    }
+
     // Each instrument (optional: about a second of computing each).
     let mut instruments = Map::new();
     if args.instruments {
@@ -402,6 +447,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Failure> {
             "goals_total": goals.len(),
             "all_goals_met": met == goals.len(),
         });
+        report["builds"] = Value::Object(builds);
         if !instruments.is_empty() {
             report["instruments"] = Value::Object(instruments);
         }
@@ -514,14 +560,14 @@ impl Bound {
 /// Each goal: its figure, the bound it must keep, and whether it does.
 #[derive(Default)]
 struct Goals {
-    goals: Vec<(&'static str, f64, Bound, f64, bool)>,
+    goals: Vec<(String, f64, Bound, f64, bool)>,
 }
 
 impl Goals {
     /// Record a goal; whether it is met.
-    fn check(&mut self, name: &'static str, value: f64, bound: Bound, limit: f64) -> bool {
+    fn check(&mut self, name: impl Into<String>, value: f64, bound: Bound, limit: f64) -> bool {
         let pass = bound.holds(value, limit);
-        self.goals.push((name, value, bound, limit, pass));
+        self.goals.push((name.into(), value, bound, limit, pass));
         pass
     }
 
@@ -537,9 +583,9 @@ impl Goals {
         Value::Object(
             self.goals
                 .iter()
-                .map(|&(name, value, bound, limit, pass)| {
+                .map(|(name, value, bound, limit, pass)| {
                     let goal = json!({ "value": value, "bound": bound.symbol(), "limit": limit, "pass": pass });
-                    (name.to_string(), goal)
+                    (name.clone(), goal)
                 })
                 .collect(),
         )

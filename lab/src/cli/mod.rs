@@ -58,7 +58,7 @@ enum Command {
                             range is refused with exit status 2 and one line naming the field; \
                             nothing is written then.")]
     Strike(strike::StrikeArgs),
-    /// Measure the speed goals: full-keyboard load, the chords' worst blocks, kernel, 32-note chord, idle.
+    /// Measure the speed goals: full-keyboard load, the chords' worst blocks, kernel, 32-note chord, idle, instrument builds.
     #[command(long_about = "Measure the engine's speed goals on this machine, the piano played \
                             through the real-time synth at 48 kHz in blocks of 64 samples on one \
                             thread, as the plugin plays it: all 88 keys struck and held with the \

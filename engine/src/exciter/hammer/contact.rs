@@ -339,7 +339,7 @@ pub struct Guess<'a> {
 /// truncation at the usual hop of a hundredth is ~1e-18), which
 /// was a fifth of a fortissimo chord's contact time. Empty at a strike's start;
 /// one per strike, as it holds forces of that strike's law.
-#[derive(Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LastPower(Cell<[f64; 3]>);
 
 /// The coefficients binom(alpha, k) of (1 + x)^alpha, k = 0 ..= [`SERIES_TERMS`].

@@ -32,13 +32,14 @@ use crate::string::residual::Residual;
 /// A sub-step size the string is stepped at while a hammer is near: its count
 /// per sample and the string's exact step over it (the string owns these; every
 /// hammer on it uses them).
+#[derive(Clone)]
 pub struct Substep {
     pub substeps: usize,
     pub step: StepTable,
 }
 
 /// What a hammer needs for one sub-step size.
-#[derive(PartialEq)]
+#[derive(Clone, PartialEq)]
 struct FineDrive {
     drive: DriveTable,
     /// The residual's exp(-h / (c R)) over the sub-step.
@@ -46,7 +47,7 @@ struct FineDrive {
 }
 
 /// What a hammer at one strike point needs, for every step size.
-#[derive(PartialEq)]
+#[derive(Clone, PartialEq)]
 struct HammerTables {
     position: f64,
     audio: DriveTable,
@@ -56,6 +57,7 @@ struct HammerTables {
 }
 
 /// A strike in progress: the moving hammer and where its contact stands.
+#[derive(Clone)]
 struct Strike {
     hammer: Hammer,
     /// Displacement of the omitted modes at the strike point, m.
@@ -109,6 +111,7 @@ impl Strike {
 }
 
 /// A hammer's tables at one strike point, and its strike while one is in play.
+#[derive(Clone)]
 pub struct HammerRig {
     tables: HammerTables,
     strike: Option<Strike>,

@@ -86,30 +86,58 @@ pub fn pressure_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPositio
     HEARD.get_or(key, || rayleigh_sum(plate, mode, mic)) * mode.net_volume
 }
 
+/// The board cut into cells for Rayleigh's integral over `mode` of wave
+/// number `k`: fine enough for the mode's shape (four cells a half wave) and
+/// for the sound's wavelength (four cells a wavelength).
+struct Cells {
+    dx: f64,
+    dy: f64,
+    ny: usize,
+    /// Each column's centre across the length, and the mode's shape there.
+    shape_x: Vec<(f64, f64)>,
+    n: u32,
+    width: f64,
+}
+
+impl Cells {
+    fn new(plate: &Plate, mode: &BodyMode, k: f64) -> Self {
+        let (m, n) = (mode.m, mode.n);
+        let (length, width) = (plate.length_m, plate.width_m);
+        let cells = |side: f64, half_waves: u32| {
+            let by_shape = 4.0 * f64::from(half_waves);
+            let by_sound = 4.0 * side * k / (2.0 * PI);
+            (by_shape.max(by_sound).max(MIN_CELLS).ceil() as usize).min(MAX_CELLS)
+        };
+        let (nx, ny) = (cells(length, m), cells(width, n));
+        let (dx, dy) = (length / nx as f64, width / ny as f64);
+        let shape_x = (0..nx)
+            .map(|i| {
+                let x = (i as f64 + 0.5) * dx;
+                (x, (f64::from(m) * PI * x / length).sin())
+            })
+            .collect();
+        Self { dx, dy, ny, shape_x, n, width }
+    }
+
+    /// Each row's centre across the width, and the mode's shape there.
+    fn rows(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        (0..self.ny).map(|j| {
+            let y = (j as f64 + 0.5) * self.dy;
+            (y, (f64::from(self.n) * PI * y / self.width).sin())
+        })
+    }
+}
+
 /// [`pressure_per_acceleration`], summed.
 fn rayleigh_sum(plate: &Plate, mode: &BodyMode, mic: MicPosition) -> f64 {
-    let (m, n) = (mode.m, mode.n);
     let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
     let (length, width) = (plate.length_m, plate.width_m);
-    let cells = |side: f64, half_waves: u32| {
-        let by_shape = 4.0 * f64::from(half_waves);
-        let by_sound = 4.0 * side * k / (2.0 * PI);
-        (by_shape.max(by_sound).max(MIN_CELLS).ceil() as usize).min(MAX_CELLS)
-    };
-    let (nx, ny) = (cells(length, m), cells(width, n));
-    let (dx, dy) = (length / nx as f64, width / ny as f64);
-    let shape_x: Vec<(f64, f64)> = (0..nx)
-        .map(|i| {
-            let x = (i as f64 + 0.5) * dx;
-            (x, (f64::from(m) * PI * x / length).sin())
-        })
-        .collect();
+    let grid = Cells::new(plate, mode, k);
+    let (dx, dy, shape_x) = (grid.dx, grid.dy, &grid.shape_x);
     let mut sum = Complex64::new(0.0, 0.0);
-    for j in 0..ny {
-        let y = (j as f64 + 0.5) * dy;
-        let shape_y = (f64::from(n) * PI * y / width).sin();
+    for (y, shape_y) in grid.rows() {
         let (ry, h2) = (y - mic.y_m, mic.height_m * mic.height_m);
-        for &(x, shape) in &shape_x {
+        for &(x, shape) in shape_x {
             let rx = x - mic.x_m;
             let r = (rx * rx + ry * ry + h2).sqrt().max(MIN_DISTANCE_M);
             sum += Complex64::from_polar(shape * shape_y / r, -k * r);
@@ -190,29 +218,15 @@ pub fn figure_8_per_acceleration(plate: &Plate, mode: &BodyMode, mic: MicPositio
 /// the travel time from the board's middle taken out, as [`rayleigh_sum`]
 /// takes them: d/du (e^{-i k R} / R) = -(i k + 1 / R) (R_u / R) e^{-i k R} / R.
 fn rayleigh_sums(plate: &Plate, mode: &BodyMode, mic: MicPosition, toward: (f64, f64)) -> (Complex64, Complex64) {
-    let (m, n) = (mode.m, mode.n);
     let k = 2.0 * PI * mode.frequency_hz / SOUND_SPEED_M_S;
     let (length, width) = (plate.length_m, plate.width_m);
-    let cells = |side: f64, half_waves: u32| {
-        let by_shape = 4.0 * f64::from(half_waves);
-        let by_sound = 4.0 * side * k / (2.0 * PI);
-        (by_shape.max(by_sound).max(MIN_CELLS).ceil() as usize).min(MAX_CELLS)
-    };
-    let (nx, ny) = (cells(length, m), cells(width, n));
-    let (dx, dy) = (length / nx as f64, width / ny as f64);
-    let shape_x: Vec<(f64, f64)> = (0..nx)
-        .map(|i| {
-            let x = (i as f64 + 0.5) * dx;
-            (x, (f64::from(m) * PI * x / length).sin())
-        })
-        .collect();
+    let grid = Cells::new(plate, mode, k);
+    let (dx, dy, shape_x) = (grid.dx, grid.dy, &grid.shape_x);
     let (mut sum, mut gradient) = (Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0));
-    for j in 0..ny {
-        let y = (j as f64 + 0.5) * dy;
-        let shape_y = (f64::from(n) * PI * y / width).sin();
+    for (y, shape_y) in grid.rows() {
         // From the element to the microphone.
         let (ry, h2) = (mic.y_m - y, mic.height_m * mic.height_m);
-        for &(x, shape) in &shape_x {
+        for &(x, shape) in shape_x {
             let rx = mic.x_m - x;
             let r = (rx * rx + ry * ry + h2).sqrt().max(MIN_DISTANCE_M);
             let wave = Complex64::from_polar(shape * shape_y / r, -k * r);

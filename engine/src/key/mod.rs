@@ -361,6 +361,23 @@ impl Key {
         self.bridge_point = self.bridge_point.on_zones(ZoneShare { weights, ..share });
     }
 
+    /// Take the voicing of `voiced`, the same key built at another sample
+    /// rate and voiced there (see `synth::body_voicing`): its regulation, its
+    /// gain on the body, bearing as `share` says, and the strokes its voicing
+    /// struck (a hand-held mallet's turn across the strings follows them).
+    pub fn voice_as(&mut self, voiced: &Key, share: ZoneShare) {
+        self.regulation = voiced.regulation.clone();
+        self.strike.strokes = voiced.strike.strokes;
+        self.bear_on(share, voiced.body_gain);
+    }
+
+    /// What its voicing left it with: its gain on the body, its regulation and
+    /// the strokes struck (for the test that a build at another rate takes it).
+    #[cfg(test)]
+    pub(crate) fn voicing_state(&self) -> (f64, &[(f64, f64)], u32) {
+        (self.body_gain, &self.regulation.table, self.strike.strokes)
+    }
+
     /// What a newton of its strings' force on the bridge is heard at: its
     /// output gain, its voicing on the body and the last strike's regulation.
     /// A key's strings are heard at their own gain; energy that moves between

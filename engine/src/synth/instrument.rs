@@ -5,6 +5,12 @@
 
 use super::*;
 
+/// The sample rate instruments are voiced at. The voicing weighs each key's
+/// strikes through the body (nine tenths of a build), and what it finds is
+/// the strings' and the body's, not the rate's: a build at another rate takes
+/// its keys' voicing from the same settings built at this one.
+pub const VOICING_RATE_HZ: f64 = 48_000.0;
+
 /// The most threads an instrument's keys are voiced on when it is built.
 pub(super) const MAX_VOICING_THREADS: usize = 8;
 
@@ -100,86 +106,104 @@ impl Instrument {
         let heard = HeardModes::new(&board, BODY_TOP_HZ.min(0.45 * fs), mics);
         let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
         let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
-        let range = settings.kind.touch_range();
-        let ringing = range.level_touch();
-        // Where each key bears on the body, and what it sets ringing of the
-        // strings that ring free beside it (the undamped treble, a dulcimer's
-        // courses), heard where they bear.
-        let shapes: Vec<Vec<f64>> = (0..128u8)
-            .map(|k| if keys[k as usize].is_some() { heard.shapes(&board.share_points(k)) } else { Vec::new() })
-            .collect();
-        let partners: Vec<Vec<body_voicing::Partner>> =
-            (0..128u8).map(|k| body_voicing::partners(&sympathy, &keys, k, &shapes)).collect();
-        // Keys are voiced one by one, each from a body at rest: on every core,
-        // the keys dealt out in turn (a treble key costs more than a bass one).
-        let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
-        for (i, (k, key)) in
-            keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate()
-        {
-            hands[i % cores].push((k, key));
-        }
-        let voicer = Voicer {
-            board: &board,
-            heard_modes: &heard,
-            shapes: &shapes,
-            partners: &partners,
-            range,
-            ringing,
-            regulate: settings.strings_on_body,
-        };
-        fn voice_hand<'k>(
-            voicer: &Voicer,
-            hand: Vec<(u8, &'k mut Key)>,
-            body: &mut Soundboard,
-        ) -> Vec<(u8, &'k mut Key, Voiced)> {
-            hand.into_iter()
-                .map(|(k, key)| {
-                    let v = voicer.voice(key, k, body);
-                    (k, key, v)
-                })
-                .collect()
-        }
-        let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
-            // A hand goes to its thread once the thread runs; one no thread
-            // could be started for (a limit on threads or memory) is voiced
-            // here, the same (each key from a body at rest).
-            let mut workers = Vec::new();
-            let mut here = Vec::new();
-            for hand in hands {
-                let (give, take) = std::sync::mpsc::channel::<Vec<(u8, &mut Key)>>();
-                let (voicer, mut body) = (&voicer, soundboard.clone());
-                let worker = std::thread::Builder::new()
-                    .spawn_scoped(scope, move || voice_hand(voicer, take.recv().unwrap_or_default(), &mut body));
-                match worker {
-                    Ok(worker) => match give.send(hand) {
-                        Ok(()) => workers.push(worker),
-                        Err(std::sync::mpsc::SendError(hand)) => here.push(hand),
-                    },
-                    Err(_) => here.push(hand),
+        // A build at another rate takes each key's voicing from the same
+        // settings built at the voicing's own rate (kept as built: a host
+        // trying rate after rate voices once), when that has every key this
+        // one has; else it voices its keys itself.
+        let reference = (fs != VOICING_RATE_HZ)
+            .then(|| Self::build(&InstrumentSettings { sample_rate_hz: VOICING_RATE_HZ, ..settings.clone() }).ok())
+            .flatten()
+            .filter(|r| keys.iter().zip(&r.keys).all(|(here, there)| here.is_none() || there.is_some()));
+        if let Some(reference) = reference {
+            for (k, (key, voiced)) in keys.iter_mut().zip(&reference.keys).enumerate() {
+                if let (Some(key), Some(voiced)) = (key, voiced) {
+                    key.voice_as(voiced, board.zone_share(k as u8));
                 }
             }
-            let mut voiced: Vec<_> =
-                here.into_iter().flat_map(|hand| voice_hand(&voicer, hand, &mut soundboard.clone())).collect();
-            voiced.extend(workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
-            voiced
-        });
-        if settings.kind.heard_as_built() {
-            // Every key bears on the body with the middle key's gain per newton
-            // of bridge force: the microphones hear the keyboard's balance as
-            // the strings and the body make it.
-            let middle = board.middle_key();
-            let per_n = voiced.iter().find(|v| v.0 == middle).map(|v| v.2.level * v.1.output_gain_per_n());
-            if let Some(per_n) = per_n.filter(|g| *g > 0.0 && g.is_finite()) {
-                for (_, key, v) in &mut voiced {
-                    v.relevel(per_n / key.output_gain_per_n().max(f64::MIN_POSITIVE));
+        } else {
+            let range = settings.kind.touch_range();
+            let ringing = range.level_touch();
+            // Where each key bears on the body, and what it sets ringing of the
+            // strings that ring free beside it (the undamped treble, a dulcimer's
+            // courses), heard where they bear.
+            let shapes: Vec<Vec<f64>> = (0..128u8)
+                .map(|k| if keys[k as usize].is_some() { heard.shapes(&board.share_points(k)) } else { Vec::new() })
+                .collect();
+            let partners: Vec<Vec<body_voicing::Partner>> =
+                (0..128u8).map(|k| body_voicing::partners(&sympathy, &keys, k, &shapes)).collect();
+            // Keys are voiced one by one, each from a body at rest: on every core,
+            // the keys dealt out in turn (a treble key costs more than a bass one).
+            let mut hands: Vec<Vec<(u8, &mut Key)>> = (0..cores).map(|_| Vec::new()).collect();
+            for (i, (k, key)) in
+                keys.iter_mut().enumerate().filter_map(|(k, key)| Some((k as u8, key.as_mut()?))).enumerate()
+            {
+                hands[i % cores].push((k, key));
+            }
+            let voicer = Voicer {
+                board: &board,
+                heard_modes: &heard,
+                shapes: &shapes,
+                partners: &partners,
+                range,
+                ringing,
+                regulate: settings.strings_on_body,
+            };
+            fn voice_hand<'k>(
+                voicer: &Voicer,
+                hand: Vec<(u8, &'k mut Key)>,
+                body: &mut Soundboard,
+            ) -> Vec<(u8, &'k mut Key, Voiced)> {
+                hand.into_iter()
+                    .map(|(k, key)| {
+                        let v = voicer.voice(key, k, body);
+                        (k, key, v)
+                    })
+                    .collect()
+            }
+            let mut voiced: Vec<(u8, &mut Key, Voiced)> = std::thread::scope(|scope| {
+                // A hand goes to its thread once the thread runs; one no thread
+                // could be started for (a limit on threads or memory) is voiced
+                // here, the same (each key from a body at rest).
+                let mut workers = Vec::new();
+                let mut here = Vec::new();
+                for hand in hands {
+                    let (give, take) = std::sync::mpsc::channel::<Vec<(u8, &mut Key)>>();
+                    let (voicer, mut body) = (&voicer, soundboard.clone());
+                    let worker = std::thread::Builder::new()
+                        .spawn_scoped(scope, move || voice_hand(voicer, take.recv().unwrap_or_default(), &mut body));
+                    match worker {
+                        Ok(worker) => match give.send(hand) {
+                            Ok(()) => workers.push(worker),
+                            Err(std::sync::mpsc::SendError(hand)) => here.push(hand),
+                        },
+                        Err(_) => here.push(hand),
+                    }
+                }
+                let mut voiced: Vec<_> =
+                    here.into_iter().flat_map(|hand| voice_hand(&voicer, hand, &mut soundboard.clone())).collect();
+                voiced.extend(
+                    workers.into_iter().flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))),
+                );
+                voiced
+            });
+            if settings.kind.heard_as_built() {
+                // Every key bears on the body with the middle key's gain per newton
+                // of bridge force: the microphones hear the keyboard's balance as
+                // the strings and the body make it.
+                let middle = board.middle_key();
+                let per_n = voiced.iter().find(|v| v.0 == middle).map(|v| v.2.level * v.1.output_gain_per_n());
+                if let Some(per_n) = per_n.filter(|g| *g > 0.0 && g.is_finite()) {
+                    for (_, key, v) in &mut voiced {
+                        v.relevel(per_n / key.output_gain_per_n().max(f64::MIN_POSITIVE));
+                    }
                 }
             }
-        }
-        let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut()).collect::<Vec<_>>());
-        voiced.sort_by_key(|v| v.0);
-        body_voicing::even_out(&mut voiced, &frequencies_hz, headroom, range);
-        for (k, key, v) in &mut voiced {
-            key.bear_on(board.zone_share(*k), v.level * v.peak_cut().min(headroom));
+            let headroom = body_voicing::headroom(&voiced.iter().map(|v| v.2.peak_cut()).collect::<Vec<_>>());
+            voiced.sort_by_key(|v| v.0);
+            body_voicing::even_out(&mut voiced, &frequencies_hz, headroom, range);
+            for (k, key, v) in &mut voiced {
+                key.bear_on(board.zone_share(*k), v.level * v.peak_cut().min(headroom));
+            }
         }
         Ok(Self {
             settings: settings.clone(),
@@ -427,5 +451,31 @@ impl Fallen {
 
     pub(super) fn keys(&self) -> &[u8] {
         &self.keys[..self.len]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_build_at_another_rate_takes_the_voicing_found_at_the_voicing_rate() {
+        // The dulcimer: hand-held mallets, whose turn across a course's
+        // strings follows the strokes the voicing struck.
+        let at = |fs: f64| Instrument::build(&default_settings(InstrumentKind::Dulcimer, fs)).expect("builds");
+        let (voiced, other) = (at(VOICING_RATE_HZ), at(96_000.0));
+        let mut compared = 0;
+        for (here, there) in other.keys.iter().zip(&voiced.keys) {
+            let (Some(here), Some(there)) = (here, there) else {
+                assert!(here.is_none(), "a key at 96 kHz the voicing rate has not");
+                continue;
+            };
+            let ((gain, table, strokes), (voiced_gain, voiced_table, voiced_strokes)) =
+                (here.voicing_state(), there.voicing_state());
+            assert_eq!((gain.to_bits(), table, strokes), (voiced_gain.to_bits(), voiced_table, voiced_strokes));
+            assert!(gain != 1.0 && !table.is_empty() && strokes > 0, "voiced: {gain} {table:?} {strokes}");
+            compared += 1;
+        }
+        assert!(compared >= 20, "{compared} keys");
     }
 }

@@ -378,18 +378,15 @@ mod tests {
         }
     }
 
+    /// A plate mode of unit modal mass and net volume, (m, n) half waves at `frequency_hz`.
+    fn mode(m: u32, n: u32, frequency_hz: f64) -> BodyMode {
+        BodyMode { frequency_hz, loss_factor: 0.02, modal_mass_kg: 1.0, m, n, net_volume: 1.0 }
+    }
+
     #[test]
     fn far_away_the_sum_is_the_far_fields_and_near_it_hears_the_near_lobes() {
         let board = design(InstrumentKind::Piano);
         let plate = &board.plate;
-        let mode = |m: u32, n: u32, frequency_hz: f64| BodyMode {
-            frequency_hz,
-            loss_factor: 0.02,
-            modal_mass_kg: 1.0,
-            m,
-            n,
-            net_volume: 1.0,
-        };
         let (a, b) = (plate.length_m, plate.width_m);
         // 30 m off, up and to one side: within 0.3 dB of Fraunhofer's lobes.
         for (m, n, f) in [(1, 1, 80.0), (3, 1, 113.0), (2, 3, 400.0), (5, 3, 1000.0), (7, 5, 1500.0)] {
@@ -423,14 +420,6 @@ mod tests {
     fn a_figure_8_hears_the_cosine_of_the_pressure_far_away() {
         let board = design(InstrumentKind::Piano);
         let plate = &board.plate;
-        let mode = |m: u32, n: u32, frequency_hz: f64| BodyMode {
-            frequency_hz,
-            loss_factor: 0.02,
-            modal_mass_kg: 1.0,
-            m,
-            n,
-            net_volume: 1.0,
-        };
         let (a, b) = (plate.length_m, plate.width_m);
         let far = MicPosition { x_m: 0.5 * a + 12.0, y_m: 0.5 * b - 7.0, height_m: 26.0 };
         let r = (12.0f64 * 12.0 + 7.0 * 7.0 + 26.0 * 26.0).sqrt();

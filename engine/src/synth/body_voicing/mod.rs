@@ -121,8 +121,10 @@ fn free_ring(
     // partial too weak to count there may still be what the microphones hear
     // most (on a resonance of the board), so none is left out for being weak.
     let alone = |(z, lambda): &(Complex64, Complex64)| z.norm_sqr() * window_mean(2.0 * lambda.re, from, to);
-    partials.sort_by(|a, b| alone(b).total_cmp(&alone(a)));
-    partials.truncate(PROBE_PARTIALS);
+    let partials = strongest(partials.iter().map(alone).collect(), PROBE_PARTIALS)
+        .into_iter()
+        .map(|i| partials[i])
+        .collect::<Vec<_>>();
     let heard: Vec<[Complex64; 2]> = partials
         .iter()
         .map(|(z, lambda)| heard_modes.transfer_shaped_pa_per_n(shapes, lambda.im / (2.0 * PI)).map(|t| z * t * gain))
@@ -237,10 +239,12 @@ impl Ring<'_> {
         // The strongest PROBE_PARTIALS partials by their strings' own ring.
         let alone =
             |i: usize| strings.iter().map(|s| s[i].0.norm_sqr() * window_mean(2.0 * s[i].1.re, from, to)).sum::<f64>();
-        let mut order: Vec<usize> =
+        let candidates: Vec<usize> =
             (0..partials).filter(|&i| chosen(i) && strings.iter().all(|s| s[i].1.im > 0.0)).collect();
-        order.sort_by(|&a, &b| alone(b).total_cmp(&alone(a)));
-        order.truncate(PROBE_PARTIALS);
+        let order: Vec<usize> = strongest(candidates.iter().map(|&i| alone(i)).collect(), PROBE_PARTIALS)
+            .into_iter()
+            .map(|j| candidates[j])
+            .collect();
         let (first, last) = ((from / h).ceil() as usize, (to / h).floor() as usize);
         let blocks = (last + 1).saturating_sub(first).max(1) as f64;
         let mut mics = 0.0;
@@ -370,6 +374,15 @@ fn window_integral(mu: Complex64, from: f64, to: f64) -> Complex64 {
         return Complex64::new(1.0, 0.0);
     }
     ((mu * to).exp() - (mu * from).exp()) / (mu * (to - from))
+}
+
+/// The indices of the `most` largest of `weights`, largest first (equal ones
+/// in their order): each weight worked out once, not at every comparison.
+fn strongest(weights: Vec<f64>, most: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..weights.len()).collect();
+    order.sort_by(|&a, &b| weights[b].total_cmp(&weights[a]));
+    order.truncate(most);
+    order
 }
 
 /// The mean of e^(rate t) over `from`..`to` for a real rate.

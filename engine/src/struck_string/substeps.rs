@@ -39,10 +39,13 @@ impl SubstepPlan {
     /// Measure `hammer` (its speed taken as the top one) striking `string` at
     /// `sample_rate_hz`. Allocates; a few tens of microseconds of contact per speed.
     pub fn measure(string: &StringModes, sample_rate_hz: f64, hammer: HammerSpec) -> Self {
+        // One string at rest, its tables for both counts built once, struck
+        // as a copy at every speed.
+        let at_rest = StruckString::with_substep_counts(string.clone(), sample_rate_hz, &[2, 4]);
         let points = SPEED_FRACTIONS.map(|fraction| {
             let speed_m_s = hammer.speed_m_s * fraction;
-            let error = strike_difference(string, sample_rate_hz, HammerSpec { speed_m_s, ..hammer }, 2, 4) * 4.0 / 3.0;
-            (speed_m_s.ln(), error.max(f64::MIN_POSITIVE).ln())
+            let error = difference_from_rest(&at_rest, sample_rate_hz, HammerSpec { speed_m_s, ..hammer }, 2, 4);
+            (speed_m_s.ln(), (error * 4.0 / 3.0).max(f64::MIN_POSITIVE).ln())
         });
         Self { points }
     }
@@ -98,9 +101,20 @@ pub fn strike_difference(
     coarse: usize,
     fine: usize,
 ) -> f64 {
-    let counts = [coarse, fine];
-    let mut a = StruckString::with_substep_counts(string.clone(), sample_rate_hz, &counts);
-    let mut b = StruckString::with_substep_counts(string.clone(), sample_rate_hz, &counts);
+    let at_rest = StruckString::with_substep_counts(string.clone(), sample_rate_hz, &[coarse, fine]);
+    difference_from_rest(&at_rest, sample_rate_hz, hammer, coarse, fine)
+}
+
+/// [`strike_difference`] on copies of `at_rest`, a string at rest with its
+/// tables for both counts.
+fn difference_from_rest(
+    at_rest: &StruckString,
+    sample_rate_hz: f64,
+    hammer: HammerSpec,
+    coarse: usize,
+    fine: usize,
+) -> f64 {
+    let (mut a, mut b) = (at_rest.clone(), at_rest.clone());
     a.strike_substepped(hammer, coarse);
     b.strike_substepped(hammer, fine);
     let longest = (LONGEST_CONTACT_S * sample_rate_hz) as usize;

@@ -1,6 +1,6 @@
 //! Instruments kept as built: a second build of the same settings is a copy of
-//! the first, sample for sample as a build afresh, and only the same settings
-//! at the same sample rate find it.
+//! the first, which plays as a build afresh, and only the same settings at the
+//! same sample rate find it.
 
 use struck_engine::design::InstrumentKind;
 use struck_engine::synth::{Event, Instrument, InstrumentSettings, Synth, TimedEvent, built, default_settings};
@@ -42,10 +42,15 @@ fn a_kept_instrument_plays_as_one_built_afresh_and_only_for_its_own_settings() {
     let piano = default_settings(InstrumentKind::Piano, 48_000.0);
     let afresh = chord(Instrument::build_afresh(&piano).expect("a piano"), 0.6);
     assert!(afresh.iter().any(|s| s.abs() > 1e-3), "the chord sounds");
+    built::forget();
     let first = chord(build(&piano), 0.6);
     let kept = chord(build(&piano), 0.6);
-    assert!(first == afresh, "the first build plays as one afresh");
-    assert!(kept == afresh, "the kept copy plays as one afresh");
+    // The first takes the voicing that came with the program: found on a
+    // machine whose kernels may round otherwise than this one's, so the same
+    // to within rounding (on the machine it was found on, the same bits).
+    let most = first.iter().zip(&afresh).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(first.len() == afresh.len() && most <= 1e-6, "the first build plays as one afresh: {most}");
+    assert!(kept == first, "the kept copy plays as the first");
 
     // Another rate, or other settings, is another instrument.
     let harpsichord = default_settings(InstrumentKind::Harpsichord, 48_000.0);

@@ -770,3 +770,61 @@ fn an_interrupted_render_leaves_nothing_behind() {
 fn crate_dir_song(name: &str) -> PathBuf {
     struck_tests::crate_dir().parent().unwrap().join("demo-songs").join(name)
 }
+
+#[test]
+fn a_voicing_not_shipped_is_saved_once_and_taken_from_the_cache_after() {
+    // Settings no factory preset has: the keys are voiced through the body
+    // (the better part of a second), the voicing saved in the cache folder,
+    // and a second run takes it from there and renders the same samples. A
+    // damaged file there is passed over (voiced again, the same).
+    let dir = tempfile::tempdir().expect("a scratch folder");
+    let cache = dir.path().join("cache");
+    let preset = dir.path().join("hard.json");
+    std::fs::write(&preset, r#"{"name": "hard", "instrument": "santoor", "voicing": {"hammer_stiffness": 1.37}}"#)
+        .expect("a preset");
+    let render = |name: &str| {
+        let out = dir.path().join(name);
+        let output = std::process::Command::new(struck_tests::struck_binary())
+            .env("STRUCK_CACHE_DIR", &cache)
+            .args(["render", "--preset", path_str(&preset), "--out", path_str(&out), path_str(&midi("a4.mid"))])
+            .output()
+            .expect("run struck");
+        assert!(output.status.success(), "{}", stderr(&output));
+        std::fs::read(out).expect("a WAV")
+    };
+    let saved = || -> Vec<PathBuf> {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(cache.join("voicings"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|d| d.path().is_dir())
+            .flat_map(|d| std::fs::read_dir(d.path()).into_iter().flatten().flatten().map(|f| f.path()))
+            .collect();
+        files.sort();
+        files
+    };
+    let first = render("first.wav");
+    let files = saved();
+    assert_eq!(files.len(), 1, "one voicing saved: {files:?}");
+    assert!(files[0].extension().is_some_and(|e| e == "json"), "{files:?}");
+    let text = std::fs::read_to_string(&files[0]).expect("the saved voicing");
+    assert!(text.contains("\"hammer_stiffness\":1.37") && text.contains("\"santoor\""), "{}", &text[..200]);
+    assert!(render("second.wav") == first, "the saved voicing renders as the one found");
+    // It is read: every key turned up twice on the body is heard so.
+    let (head, whole) = text.split_once('\n').expect("a head line");
+    let mut voicing: serde_json::Value = serde_json::from_str(whole).expect("the voicing");
+    for key in voicing["keys"].as_array_mut().expect("keys") {
+        key["body_gain"] = (2.0 * key["body_gain"].as_f64().expect("a gain")).into();
+    }
+    std::fs::write(&files[0], format!("{head}\n{voicing}\n")).expect("turned up");
+    let peak = |wav: &[u8]| {
+        let mut reader = hound::WavReader::new(wav).expect("a WAV");
+        reader.samples::<f32>().map(Result::unwrap).fold(0.0f32, |m, s| m.max(s.abs()))
+    };
+    let louder = 20.0 * (peak(&render("louder.wav")) / peak(&first)).log10();
+    assert!((louder - 6.0).abs() < 1.0, "{louder} dB");
+    std::fs::write(&files[0], "{\"settings\": broken").expect("damage it");
+    assert!(render("third.wav") == first, "a damaged saved voicing is passed over");
+    assert_eq!(saved(), files, "and saved again whole");
+    assert!(std::fs::read_to_string(&files[0]).expect("saved again").contains("santoor"));
+}

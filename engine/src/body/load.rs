@@ -76,6 +76,13 @@ struct Admittance {
     waves: Vec<Option<plate::BeamWave>>,
 }
 
+/// One frequency's entry in a board's admittance table: the residual mobility,
+/// and the bridges' bending wave (none: the board has no continuous bridge).
+type TableEntry = ((f64, f64), Option<Option<plate::BeamWave>>);
+
+/// The most threads a board's admittance table is worked out on.
+const MAX_TABLE_THREADS: usize = 8;
+
 /// How many boards' [`Admittance`]s are kept (a few sizes of each body).
 const KEPT_BOARDS: usize = 8;
 
@@ -84,12 +91,10 @@ const KEPT_BOARDS: usize = 8;
 /// sample rates, or again, asks for the same board's (tens to hundreds of
 /// milliseconds each). Off the audio thread, where instruments are built.
 fn admittance(board: &BodyDesign) -> Admittance {
-    use std::sync::{Mutex, OnceLock};
-    static KEPT: OnceLock<Mutex<Vec<(String, Admittance)>>> = OnceLock::new();
     // Every field of the design by its exact value (the shortest decimal
     // that reads back to the same bits).
     let key = format!("{board:?}");
-    let kept = KEPT.get_or_init(|| Mutex::new(Vec::new()));
+    let kept = kept_boards();
     // (A thread that panicked holding the lock left the list whole.)
     if let Some((_, found)) = kept.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == key) {
         return found.clone();
@@ -97,14 +102,39 @@ fn admittance(board: &BodyDesign) -> Admittance {
     let top = board.plate.inter_rib_hz().unwrap_or(EXPLICIT_TOP_HZ).min(EXPLICIT_TOP_HZ);
     let modes = board.modes(top);
     let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
-    let residual = (0..points)
-        .map(|i| plate::residual_mobility(&board.plate, top, TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp()))
-        .collect();
     let frequency = |i: usize| TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp();
-    let waves = match board.bridge_beam() {
-        Some((ei, rho_a)) => (0..points).map(|i| plate::beam_wave(&board.plate, ei, rho_a, frequency(i))).collect(),
-        None => Vec::new(),
+    // Each frequency's entries on their own: the table is shared out over
+    // the cores, a stretch of frequencies each.
+    let beam = board.bridge_beam();
+    let entry = |i: usize| {
+        let residual = plate::residual_mobility(&board.plate, top, frequency(i));
+        let wave = beam.map(|(ei, rho_a)| plate::beam_wave(&board.plate, ei, rho_a, frequency(i)));
+        (residual, wave)
     };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_TABLE_THREADS);
+    let stretch = points.div_ceil(cores);
+    let entries: Vec<TableEntry> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (1..cores)
+            .map(|c| {
+                let entry = &entry;
+                let range = (c * stretch).min(points)..((c + 1) * stretch).min(points);
+                // A stretch no thread could be started for is worked out here.
+                std::thread::Builder::new()
+                    .spawn_scoped(scope, move || range.clone().map(entry).collect::<Vec<_>>())
+                    .map_err(|_| (c * stretch).min(points)..((c + 1) * stretch).min(points))
+            })
+            .collect();
+        let mut entries: Vec<_> = (0..stretch.min(points)).map(entry).collect();
+        for worker in workers {
+            match worker {
+                Ok(w) => entries.extend(w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))),
+                Err(range) => entries.extend(range.map(entry)),
+            }
+        }
+        entries
+    });
+    let residual = entries.iter().map(|e| e.0).collect();
+    let waves = if beam.is_some() { entries.iter().map(|e| e.1.flatten()).collect() } else { Vec::new() };
     let admittance = Admittance { modes, residual, waves };
     let mut kept = kept.lock().unwrap_or_else(|e| e.into_inner());
     if !kept.iter().any(|(k, _)| *k == key) {
@@ -114,6 +144,19 @@ fn admittance(board: &BodyDesign) -> Admittance {
         kept.push((key, admittance.clone()));
     }
     admittance
+}
+
+type KeptBoards = std::sync::Mutex<Vec<(String, Admittance)>>;
+
+fn kept_boards() -> &'static KeptBoards {
+    static KEPT: std::sync::OnceLock<KeptBoards> = std::sync::OnceLock::new();
+    KEPT.get_or_init(Default::default)
+}
+
+/// Forget every board's admittance kept (for measuring a first build).
+pub(crate) fn forget_boards() {
+    let dropped = std::mem::take(&mut *kept_boards().lock().unwrap_or_else(|e| e.into_inner()));
+    drop(dropped);
 }
 
 impl<'a> BoardLoad<'a> {

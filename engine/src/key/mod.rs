@@ -361,21 +361,27 @@ impl Key {
         self.bridge_point = self.bridge_point.on_zones(ZoneShare { weights, ..share });
     }
 
-    /// Take the voicing of `voiced`, the same key built at another sample
-    /// rate and voiced there (see `synth::body_voicing`): its regulation, its
-    /// gain on the body, bearing as `share` says, and the strokes its voicing
-    /// struck (a hand-held mallet's turn across the strings follows them).
-    pub fn voice_as(&mut self, voiced: &Key, share: ZoneShare) {
-        self.regulation = voiced.regulation.clone();
-        self.strike.strokes = voiced.strike.strokes;
-        self.bear_on(share, voiced.body_gain);
+    /// What its voicing through the body left it with ([`KeyVoicing`]).
+    pub fn voicing(&self) -> KeyVoicing {
+        KeyVoicing {
+            midi_key: self.midi_key(),
+            body_gain: self.body_gain,
+            regulation: self.regulation.table.clone(),
+            gain: self.regulation.gain,
+            gain_to: self.regulation.gain_to,
+            strokes: self.strike.strokes,
+        }
     }
 
-    /// What its voicing left it with: its gain on the body, its regulation and
-    /// the strokes struck (for the test that a build at another rate takes it).
-    #[cfg(test)]
-    pub(crate) fn voicing_state(&self) -> (f64, &[(f64, f64)], u32) {
-        (self.body_gain, &self.regulation.table, self.strike.strokes)
+    /// Take `voicing`, found for the same key voicing it through the body (at
+    /// the voicing's own sample rate, or in an earlier build), bearing on the
+    /// body as `share` says: as if it had been voiced here.
+    pub fn voice_as(&mut self, voicing: &KeyVoicing, share: ZoneShare) {
+        self.regulation.table = voicing.regulation.clone();
+        self.regulation.gain = voicing.gain;
+        self.regulation.gain_to = voicing.gain_to;
+        self.strike.strokes = voicing.strokes;
+        self.bear_on(share, voicing.body_gain);
     }
 
     /// What a newton of its strings' force on the bridge is heard at: its
@@ -596,4 +602,19 @@ impl Key {
         self.set_poles(pitch);
         old.silence();
     }
+}
+
+/// What voicing a key through the body leaves it with: its gain onto the body
+/// (times its bridge-force gain), its regulation (gain by touch), the gain its
+/// last strike was heard at and glided to, and the strokes struck (a
+/// hand-held mallet's turn across the strings follows them). Nothing in it
+/// depends on the sample rate.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct KeyVoicing {
+    pub midi_key: u8,
+    pub body_gain: f64,
+    pub regulation: Vec<(f64, f64)>,
+    pub gain: f64,
+    pub gain_to: f64,
+    pub strokes: u32,
 }

@@ -69,9 +69,13 @@ pub fn kept_count() -> usize {
     kept().len()
 }
 
-/// Forget every instrument kept: the next build of any settings is afresh
-/// (for measuring a first build).
+/// Forget every instrument kept, every voicing found in this run and every
+/// board's admittance: the next build of any settings is as a program's
+/// first, with only the voicings that came with it to go on (for measuring a
+/// first build).
 pub fn forget() {
     let dropped = std::mem::take(&mut *kept());
     drop(dropped);
+    super::voicings::forget();
+    crate::body::load::forget_boards();
 }

@@ -3,6 +3,9 @@
 //! control block and each stretch (the keys told, their force on the
 //! bridge, the body heard).
 
+use std::sync::Arc;
+
+use super::voicings::{self, InstrumentVoicing};
 use super::*;
 
 /// The sample rate instruments are voiced at. The voicing weighs each key's
@@ -10,6 +13,19 @@ use super::*;
 /// the strings' and the body's, not the rate's: a build at another rate takes
 /// its keys' voicing from the same settings built at this one.
 pub const VOICING_RATE_HZ: f64 = 48_000.0;
+
+/// Where a build takes its keys' voicing from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoicingFrom {
+    /// The voicing found for the same settings before (in this run, saved in
+    /// the cache folder, or come with the program), at any rate; else found
+    /// here, then kept and saved.
+    Kept,
+    /// Found here, from nothing (at another rate, from the same settings
+    /// built at the voicing's rate), and neither kept nor saved: what a build
+    /// costs with nothing to go on.
+    Afresh,
+}
 
 /// The most threads an instrument's keys are voiced on when it is built.
 pub(super) const MAX_VOICING_THREADS: usize = 8;
@@ -38,21 +54,27 @@ impl Instrument {
     /// Build every key's tables. Allocates; off the audio thread. The same
     /// settings built again (a host activating the plugin again, a preset
     /// chosen again) come from [`built`]'s few instruments kept as built, a
-    /// copy in milliseconds; anything else is built afresh
-    /// ([`Self::build_afresh`]), which takes up to seconds.
+    /// copy in milliseconds; anything else is built afresh, with the voicing
+    /// found for the same settings before, if any ([`Self::build_with`]).
     pub fn build(settings: &InstrumentSettings) -> Result<Self, BuildError> {
         if let Some(instrument) = built::find(settings) {
             return Ok(instrument);
         }
-        let instrument = Self::build_afresh(settings)?;
+        let instrument = Self::build_with(settings, VoicingFrom::Kept)?;
         built::keep(settings, &instrument);
         Ok(instrument)
     }
 
     /// [`Self::build`] without looking among the instruments kept as built
-    /// (nor keeping this one): every key's tables, the body and the voicing
-    /// worked out anew.
+    /// (nor keeping this one), nor among the voicings found before: every
+    /// key's tables, the body and the voicing worked out anew.
     pub fn build_afresh(settings: &InstrumentSettings) -> Result<Self, BuildError> {
+        Self::build_with(settings, VoicingFrom::Afresh)
+    }
+
+    /// Every key's tables and the body, built anew, and the keys voiced as
+    /// `from` says. Takes up to a second where the keys are voiced here.
+    pub fn build_with(settings: &InstrumentSettings, from: VoicingFrom) -> Result<Self, BuildError> {
         let fs = settings.sample_rate_hz;
         if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
             return Err(BuildError::SampleRate(fs));
@@ -94,30 +116,54 @@ impl Instrument {
                 }
             }
         }
-        let sympathy = match &load {
-            Some(load) => Sympathy::build(load, &keys, (SYMPATHY_BLOCKS * CONTROL_BLOCK) as f64 / fs),
-            None => Sympathy::none(),
-        };
         // The body's gain puts the middle key's partials where the bridge-force
         // output has them; every other key is voiced through the body to ring as
         // its own partials would there (a technician's regulation: the body still
         // shapes each note's spectrum, decay and image, not the keyboard's
         // evenness).
-        let heard = HeardModes::new(&board, BODY_TOP_HZ.min(0.45 * fs), mics);
-        let middle = heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
-        let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
-        // A build at another rate takes each key's voicing from the same
-        // settings built at the voicing's own rate (kept as built: a host
-        // trying rate after rate voices once), when that has every key this
-        // one has; else it voices its keys itself.
-        let reference = (fs != VOICING_RATE_HZ)
-            .then(|| Self::build(&InstrumentSettings { sample_rate_hz: VOICING_RATE_HZ, ..settings.clone() }).ok())
-            .flatten()
-            .filter(|r| keys.iter().zip(&r.keys).all(|(here, there)| here.is_none() || there.is_some()));
-        if let Some(reference) = reference {
-            for (k, (key, voiced)) in keys.iter_mut().zip(&reference.keys).enumerate() {
-                if let (Some(key), Some(voiced)) = (key, voiced) {
-                    key.voice_as(voiced, board.zone_share(k as u8));
+        let body = || {
+            let heard = HeardModes::new(&board, BODY_TOP_HZ.min(0.45 * fs), mics);
+            let middle =
+                heard_pa_per_n(&board, &heard, board.middle_key(), frequencies_hz[board.middle_key() as usize]);
+            let soundboard = Soundboard::build(&board, fs, &board.zone_points(), mics, middle.max(1e-12).recip());
+            (heard, soundboard)
+        };
+        // The body on a thread of its own while the pairs are found (here, if
+        // no thread could be started).
+        let (sympathy, (heard, soundboard)) = std::thread::scope(|scope| {
+            let body_built = std::thread::Builder::new().spawn_scoped(scope, body);
+            let sympathy = match &load {
+                Some(load) => Sympathy::build(load, &keys, (SYMPATHY_BLOCKS * CONTROL_BLOCK) as f64 / fs),
+                None => Sympathy::none(),
+            };
+            let built = match body_built {
+                Ok(worker) => worker.join().unwrap_or_else(|e| std::panic::resume_unwind(e)),
+                Err(_) => body(),
+            };
+            (sympathy, built)
+        });
+        // The voicing found for these settings before (in this run, saved in
+        // the cache folder, or come with the program) is taken as found, at
+        // any rate; failing that, a build at another rate takes it from the
+        // same settings built at the voicing's own rate (which keeps it: a
+        // host trying rate after rate voices once); either only when it has
+        // every key this one has. Else the keys are voiced here (and the
+        // voicing kept and saved, at the voicing's rate).
+        let voicing = match from {
+            VoicingFrom::Kept => voicings::find(settings),
+            VoicingFrom::Afresh => None,
+        }
+        .or_else(|| {
+            (fs != VOICING_RATE_HZ)
+                .then(|| Self::build_with(&voicings::voicing_settings(settings), from).ok())
+                .flatten()
+                .map(|voiced| Arc::new(voiced.voicing()))
+        })
+        .filter(|v| keys.iter().flatten().all(|key| v.key(key.midi_key()).is_some()));
+        if let Some(voicing) = voicing {
+            for key in keys.iter_mut().flatten() {
+                if let Some(v) = voicing.key(key.midi_key()) {
+                    key.voice_as(v, board.zone_share(key.midi_key()));
                 }
             }
         } else {
@@ -204,6 +250,12 @@ impl Instrument {
             for (k, key, v) in &mut voiced {
                 key.bear_on(board.zone_share(*k), v.level * v.peak_cut().min(headroom));
             }
+            if fs == VOICING_RATE_HZ && from == VoicingFrom::Kept {
+                voicings::keep(InstrumentVoicing {
+                    settings: settings.clone(),
+                    keys: keys.iter().flatten().map(Key::voicing).collect(),
+                });
+            }
         }
         Ok(Self {
             settings: settings.clone(),
@@ -243,6 +295,14 @@ impl Instrument {
 
     pub fn settings(&self) -> &InstrumentSettings {
         &self.settings
+    }
+
+    /// What voicing its keys through the body found (or took), key by key.
+    pub fn voicing(&self) -> InstrumentVoicing {
+        InstrumentVoicing {
+            settings: voicings::voicing_settings(&self.settings),
+            keys: self.keys.iter().flatten().map(Key::voicing).collect(),
+        }
     }
 
     /// Sound every key for `n` samples, each driving the bridge as soon as it
@@ -462,20 +522,15 @@ mod tests {
     fn a_build_at_another_rate_takes_the_voicing_found_at_the_voicing_rate() {
         // The dulcimer: hand-held mallets, whose turn across a course's
         // strings follows the strokes the voicing struck.
-        let at = |fs: f64| Instrument::build(&default_settings(InstrumentKind::Dulcimer, fs)).expect("builds");
-        let (voiced, other) = (at(VOICING_RATE_HZ), at(96_000.0));
-        let mut compared = 0;
-        for (here, there) in other.keys.iter().zip(&voiced.keys) {
-            let (Some(here), Some(there)) = (here, there) else {
-                assert!(here.is_none(), "a key at 96 kHz the voicing rate has not");
-                continue;
-            };
-            let ((gain, table, strokes), (voiced_gain, voiced_table, voiced_strokes)) =
-                (here.voicing_state(), there.voicing_state());
-            assert_eq!((gain.to_bits(), table, strokes), (voiced_gain.to_bits(), voiced_table, voiced_strokes));
-            assert!(gain != 1.0 && !table.is_empty() && strokes > 0, "voiced: {gain} {table:?} {strokes}");
-            compared += 1;
+        let at = |fs: f64| {
+            Instrument::build_with(&default_settings(InstrumentKind::Dulcimer, fs), VoicingFrom::Afresh)
+                .expect("builds")
+        };
+        let (voiced, other) = (at(VOICING_RATE_HZ).voicing(), at(96_000.0).voicing());
+        assert_eq!(voiced, other);
+        assert!(voiced.keys.len() >= 20, "{} keys", voiced.keys.len());
+        for key in &voiced.keys {
+            assert!(key.body_gain != 1.0 && !key.regulation.is_empty() && key.strokes > 0, "voiced: {key:?}");
         }
-        assert!(compared >= 20, "{compared} keys");
     }
 }

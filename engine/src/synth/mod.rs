@@ -25,6 +25,7 @@ mod settings;
 mod sympathy;
 #[cfg(test)]
 mod tuning_safety;
+mod voicings;
 mod workshop;
 
 use serde::{Deserialize, Serialize};
@@ -48,10 +49,11 @@ use body_voicing::{Voiced, Voicer, heard_pa_per_n};
 use scope::ScopeWriter;
 use sympathy::Sympathy;
 
-pub use instrument::Instrument;
 use instrument::{BeforeKeys, Fallen, KeyTick, push_ended};
+pub use instrument::{Instrument, VOICING_RATE_HZ, VoicingFrom};
 use output::{DcBlock, Outlet, OutputSample};
 pub use settings::{BuildError, Controls, InstrumentSettings, default_settings};
+pub use voicings::{InstrumentVoicing, shipped_text, shipped_voicings, voicing_settings};
 
 pub use crate::CONTROL_BLOCK;
 pub use crate::key::MAX_BEBUNG_CENTS;

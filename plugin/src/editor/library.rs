@@ -353,4 +353,89 @@ mod tests {
         assert!(load_scale("", "").is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
+
+    /// The settings whose voicing comes with the program, each with the
+    /// name of its file: every instrument as it starts and every factory
+    /// preset, as `struck render` builds them and as the plugin does (its
+    /// parameters hold single-precision values), each once.
+    fn shipped_settings() -> Vec<(String, struck_engine::synth::InstrumentSettings)> {
+        use struck_engine::synth::{VOICING_RATE_HZ, default_settings};
+        let gui = GuiContext::new(Arc::new(Host));
+        let setter = gui.param_setter();
+        let fs = VOICING_RATE_HZ;
+        let mut wanted = Vec::new();
+        for choice in InstrumentChoice::ALL {
+            let kind = choice.kind();
+            wanted.push((format!("{kind}"), default_settings(kind, fs)));
+            let params = StruckParams::default();
+            set(&setter, &params.instrument.kind, choice);
+            wanted.push((format!("{kind}-plugin"), params.settings(fs)));
+        }
+        for preset in factory_presets() {
+            let name: String = preset
+                .name
+                .to_lowercase()
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+                .collect::<String>()
+                .split('-')
+                .filter(|w| !w.is_empty())
+                .collect::<Vec<_>>()
+                .join("-");
+            wanted.push((name.clone(), preset.settings(fs)));
+            let params = StruckParams::default();
+            apply(&preset, &params, &setter);
+            wanted.push((format!("{name}-plugin"), params.settings(fs)));
+        }
+        let mut seen = std::collections::HashSet::new();
+        wanted.retain(|(_, s)| seen.insert(format!("{s:?}")));
+        wanted
+    }
+
+    #[test]
+    fn the_voicings_that_come_with_the_program_are_those_found_now() {
+        use struck_engine::synth::{Instrument, shipped_text, shipped_voicings};
+        let wanted = shipped_settings();
+        let fresh: Vec<_> = wanted
+            .iter()
+            .map(|(name, s)| (name, Instrument::build_afresh(s).expect("the factory's settings build").voicing()))
+            .collect();
+        if std::env::var_os("STRUCK_WRITE_VOICINGS").is_some() {
+            // Write them again: `STRUCK_WRITE_VOICINGS=1 cargo test -p struck voicings_that_come`.
+            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../engine/voicings");
+            for old in std::fs::read_dir(&dir).expect("the voicings' folder").flatten() {
+                if old.path().extension().is_some_and(|e| e == "json") {
+                    std::fs::remove_file(old.path()).expect("an old voicing removed");
+                }
+            }
+            let mut list = String::from("// Written by the test that checks them (see voicings.rs).\n[\n");
+            for (name, voicing) in &fresh {
+                let text = shipped_text(voicing).expect("a voicing as JSON");
+                std::fs::write(dir.join(format!("{name}.json")), text).expect("a voicing written");
+                list.push_str(&format!("    include_str!(\"{name}.json\"),\n"));
+            }
+            list.push_str("]\n");
+            std::fs::write(dir.join("list.rs"), list).expect("the list written");
+            return;
+        }
+        let shipped = shipped_voicings();
+        assert_eq!(shipped.len(), fresh.len(), "voicings shipped, and settings to ship them for");
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+        for (name, voicing) in &fresh {
+            let key = format!("{:?}", voicing.settings);
+            let found = shipped.iter().find(|v| format!("{:?}", v.settings) == key);
+            let found = found.unwrap_or_else(|| panic!("no voicing comes with the program for {name}"));
+            assert_eq!(found.keys.len(), voicing.keys.len(), "{name}");
+            for (a, b) in found.keys.iter().zip(&voicing.keys) {
+                let same = a.midi_key == b.midi_key
+                    && a.strokes == b.strokes
+                    && close(a.body_gain, b.body_gain)
+                    && close(a.gain, b.gain)
+                    && close(a.gain_to, b.gain_to)
+                    && a.regulation.len() == b.regulation.len()
+                    && a.regulation.iter().zip(&b.regulation).all(|(x, y)| close(x.0, y.0) && close(x.1, y.1));
+                assert!(same, "{name}, key {}: shipped {a:?}, found now {b:?}", b.midi_key);
+            }
+        }
+    }
 }

@@ -220,27 +220,44 @@ pub fn synth_throughput(kind: struck_engine::design::InstrumentKind, audio_s: f6
     SynthThroughput { real_time_factor: blocks as f64 * BLOCK as f64 / 48_000.0 / elapsed, max_keys, build_s }
 }
 
-/// How long building `kind`'s instrument at `sample_rate_hz` takes, s: afresh
-/// (the instruments kept as built forgotten first), and again with the same
-/// settings (a copy of the one kept), the fastest of `runs` (at least 1).
-pub fn build_times(kind: struck_engine::design::InstrumentKind, sample_rate_hz: f64, runs: usize) -> (f64, f64) {
+/// How long building `kind`'s instrument at `sample_rate_hz` takes, s
+/// ([`BuildTimes`]), each the fastest of `runs` (at least 1).
+pub fn build_times(kind: struck_engine::design::InstrumentKind, sample_rate_hz: f64, runs: usize) -> BuildTimes {
     use struck_engine::synth::{Instrument, built, default_settings};
     let settings = default_settings(kind, sample_rate_hz);
+    let timed = |build: &dyn Fn() -> Instrument, forget: bool| {
+        let mut fastest = f64::INFINITY;
+        for _ in 0..runs.max(1) {
+            if forget {
+                built::forget();
+            }
+            let start = Instant::now();
+            let instrument = build();
+            fastest = fastest.min(start.elapsed().as_secs_f64());
+            // Dropped after the clock stops, as a host drops the one it replaces.
+            drop(instrument);
+        }
+        fastest
+    };
+    let build = || Instrument::build(&settings).expect("the built-in instruments build");
+    let first_s = timed(&build, true);
+    let again_s = timed(&build, false);
+    let unvoiced_s = timed(&|| Instrument::build_afresh(&settings).expect("the built-in instruments build"), true);
     built::forget();
-    let start = Instant::now();
-    let instrument = Instrument::build(&settings).expect("the built-in instruments build");
-    let afresh_s = start.elapsed().as_secs_f64();
-    // Dropped after the clock stops, as a host drops the one it replaces.
-    drop(instrument);
-    let mut again_s = f64::INFINITY;
-    for _ in 0..runs.max(1) {
-        let start = Instant::now();
-        let instrument = Instrument::build(&settings).expect("the built-in instruments build");
-        again_s = again_s.min(start.elapsed().as_secs_f64());
-        drop(instrument);
-    }
-    built::forget();
-    (afresh_s, again_s)
+    BuildTimes { first_s, again_s, unvoiced_s }
+}
+
+/// How long an instrument takes to build, s.
+#[derive(Clone, Copy, Debug)]
+pub struct BuildTimes {
+    /// In a program that has built nothing yet: its voicing through the body
+    /// comes with the program (as every instrument's as it starts does).
+    pub first_s: f64,
+    /// The same settings again: a copy of the one kept.
+    pub again_s: f64,
+    /// Voiced through the body from nothing, as settings the program has not
+    /// met (a voicing parameter moved) are.
+    pub unvoiced_s: f64,
 }
 
 /// Independent multiply-add chains in the probe, each as wide as one vector

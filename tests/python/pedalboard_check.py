@@ -9,7 +9,8 @@ audio is silent, not finite, blown up, or sounds before the first note. The
 same notes are then rendered with load smoothing on and off: it fails unless
 the plugin reports 128 samples of latency at 48 kHz with it on and none with
 it off, and sounds the same samples either way, later by what it reports
-(pedalboard does not make up an instrument's latency).
+(pedalboard does not make up an instrument's latency); and switched on again
+in the same instance, it reports and sounds as it first did.
 
 Then, in a child process logging to a file, the plugin is handed damaged
 states (as a damaged or hand-edited session would): every choice out of
@@ -575,6 +576,17 @@ def main(argv):
             f"load smoothing: {reported_smoothed} samples of latency reported with it on, {reported_plain} off"
         )
         failures += latency_failures(audio, plain, reported_smoothed, reported_plain)
+        # And back on, in the same instance: the host hears of the latency again.
+        plugin.load_smoothing = True
+        again, reported_again = render(plugin)
+        print(f"load smoothing on again: {reported_again} samples of latency reported")
+        if reported_again != reported_smoothed:
+            failures.append(
+                f"with load smoothing switched on again the plugin reports {reported_again} samples of latency, "
+                f"expected {reported_smoothed}"
+            )
+        elif not np.array_equal(again, audio):
+            failures.append("with load smoothing switched on again the plugin does not sound as it first did")
         failures += flood_failures(plugin)
 
     sys.stdout.flush()

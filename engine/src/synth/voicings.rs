@@ -6,7 +6,7 @@
 //! other is found once, kept for the program's run (a build at each of a
 //! host's sample rates, or the same voicing asked for again, voices once) and
 //! saved in the user's cache folder, so a session reopened with it does not
-//! voice again.
+//! voice again (until the engine changes).
 //!
 //! Touched only where instruments are built, never by the audio thread.
 
@@ -137,8 +137,8 @@ struct Head {
     settings: InstrumentSettings,
 }
 
-/// The voicings saved by this program: a folder named after the voicings
-/// that came with it (a program whose physics voice differently saves in
+/// The voicings saved by this program: a folder named after the engine's
+/// sources and the voicings that came with it (another engine saves in
 /// another, and clears the others away), under `$STRUCK_CACHE_DIR`, else
 /// `$XDG_CACHE_HOME/struck/voicings`, else `~/.cache/struck/voicings`.
 fn saved_dir() -> Option<PathBuf> {
@@ -163,11 +163,14 @@ fn cache_dir_from(own: Option<OsString>, xdg_cache_home: Option<OsString>, home:
     Some(cache.join("struck").join("voicings"))
 }
 
-/// The voicings that came with the program, as a name: FNV-1a over their
-/// text, in hex.
+/// The engine's sources (as its build script hashed them) and the voicings
+/// that came with the program, as a name: FNV-1a over both, in hex.
 fn program_stamp() -> &'static str {
     static STAMP: OnceLock<String> = OnceLock::new();
-    STAMP.get_or_init(|| format!("{:016x}", fnv1a(SHIPPED.iter().flat_map(|t| t.bytes()))))
+    STAMP.get_or_init(|| {
+        let sources = env!("STRUCK_ENGINE_SOURCES").bytes();
+        format!("{:016x}", fnv1a(sources.chain(SHIPPED.iter().flat_map(|t| t.bytes()))))
+    })
 }
 
 /// The 64-bit FNV-1a hash of `bytes`.

@@ -455,8 +455,10 @@ fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale
 /// a crescendo in velocity steps of 8.
 const REGULATION_TOUCHES: usize = 17;
 
-/// How many times the touches are halved where the ring changes by more than
-/// [`REGULATION_CLOSER_DB`] between two of them.
+/// How many times the touches are halved where the ring between two of them
+/// strays by more than [`REGULATION_CLOSER_DB`] from the key's own rise (its
+/// median over a regulation step, in proportion): a hard strike's spectrum
+/// swinging through a partial, not the crescendo's steady climb.
 const REGULATION_REFINEMENTS: usize = 3;
 const REGULATION_CLOSER_DB: f64 = 1.5;
 

@@ -26,14 +26,20 @@ pub(super) fn regulation(
     let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
     let mut points: Vec<(f64, f64)> =
         (0..REGULATION_TOUCHES).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
-    // Where the ring changes fast between two touches (a hard strike's
-    // spectrum swinging through a partial), look closer.
+    // Where the ring strays from the key's own rise between two touches (a
+    // hard strike's spectrum swinging through a partial), look closer: the
+    // rise expected is the key's median over a regulation step, in
+    // proportion.
+    let db = |(a, b): (f64, f64)| 10.0 * (b.max(1e-300) / a.max(1e-300)).log10();
+    let mut steps: Vec<f64> = points.windows(2).map(|w| db((w[0].1, w[1].1))).collect();
+    steps.sort_by(f64::total_cmp);
+    let rise = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
     for _ in 0..REGULATION_REFINEMENTS {
         let mut finer = Vec::with_capacity(2 * points.len());
         for pair in points.windows(2) {
             finer.push(pair[0]);
-            let (a, b) = (pair[0].1.max(1e-300), pair[1].1.max(1e-300));
-            if (10.0 * (b / a).log10()).abs() > REGULATION_CLOSER_DB {
+            let expected = rise * (pair[1].0 / pair[0].0).ln() / step.ln();
+            if (db((pair[0].1, pair[1].1)) - expected).abs() > REGULATION_CLOSER_DB {
                 let t = (pair[0].0 * pair[1].0).sqrt();
                 finer.push((t, ring_at(t)));
             }

@@ -451,15 +451,18 @@ fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale
     peak
 }
 
-/// Touches a key is regulated at, log-spaced over the instrument's range:
-/// a crescendo in velocity steps of 8.
+/// The regulation's touches, log-spaced over the instrument's range: a
+/// crescendo in velocity steps of 8, its step the unit of
+/// [`REGULATION_RISE_DB`]. A key is struck first at every other one (steps
+/// of 16), then closer where its ring asks for it.
 const REGULATION_TOUCHES: usize = 17;
 
-/// How many times the touches are halved where the ring between two of them
-/// strays by more than [`REGULATION_CLOSER_DB`] from the key's own rise (its
-/// median over a regulation step, in proportion): a hard strike's spectrum
-/// swinging through a partial, not the crescendo's steady climb.
-const REGULATION_REFINEMENTS: usize = 3;
+/// How many times the touches are halved (from steps of 16 down to steps of
+/// 1) where the ring between two of them strays by more than
+/// [`REGULATION_CLOSER_DB`] from the key's own rise (its median, in
+/// proportion to the touches' spacing): a hard strike's spectrum swinging
+/// through a partial, not the crescendo's steady climb.
+const REGULATION_REFINEMENTS: usize = 4;
 const REGULATION_CLOSER_DB: f64 = 1.5;
 
 /// The least rise of the ring from one regulated touch to the next, dB: a

@@ -24,16 +24,17 @@ pub(super) fn regulation(
     let lo = range.bounds().0;
     let step = regulation_step(range);
     let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
+    // Every other regulated touch first.
     let mut points: Vec<(f64, f64)> =
-        (0..REGULATION_TOUCHES).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
+        (0..REGULATION_TOUCHES).step_by(2).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
     // Where the ring strays from the key's own rise between two touches (a
     // hard strike's spectrum swinging through a partial), look closer: the
-    // rise expected is the key's median over a regulation step, in
-    // proportion.
+    // rise expected is the key's median (over two regulation steps, halved
+    // to one), in proportion to the touches' spacing.
     let db = |(a, b): (f64, f64)| 10.0 * (b.max(1e-300) / a.max(1e-300)).log10();
     let mut steps: Vec<f64> = points.windows(2).map(|w| db((w[0].1, w[1].1))).collect();
     steps.sort_by(f64::total_cmp);
-    let rise = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+    let rise = steps.get(steps.len() / 2).copied().unwrap_or(0.0) / 2.0;
     for _ in 0..REGULATION_REFINEMENTS {
         let mut finer = Vec::with_capacity(2 * points.len());
         for pair in points.windows(2) {

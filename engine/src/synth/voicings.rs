@@ -109,14 +109,18 @@ const SHIPPED: &[&str] = &include!("../../voicings/list.rs");
 fn shipped(key: &str) -> Option<InstrumentVoicing> {
     // Each text starts with its settings: only the one that matches is read
     // whole.
-    SHIPPED.iter().find_map(|text| {
-        let (head, whole) = text.split_once('\n')?;
-        let head: Head = serde_json::from_str(head).ok()?;
-        if format!("{:?}", head.settings) != key {
-            return None;
-        }
-        serde_json::from_str(whole).ok()
-    })
+    SHIPPED.iter().find_map(|text| read(text, key))
+}
+
+/// The voicing `text` holds ([`shipped_text`]), if it is for settings `key`
+/// (only then is it read past its first line) and reads whole.
+fn read(text: &str, key: &str) -> Option<InstrumentVoicing> {
+    let (head, whole) = text.split_once('\n')?;
+    let head: Head = serde_json::from_str(head).ok()?;
+    if format!("{:?}", head.settings) != key {
+        return None;
+    }
+    serde_json::from_str(whole).ok()
 }
 
 /// Every voicing that came with the program (for its tests, and for
@@ -189,13 +193,7 @@ const MOST_SAVED: usize = 200;
 
 /// The voicing saved for settings `key`, if one was (and reads whole).
 fn saved(key: &str) -> Option<InstrumentVoicing> {
-    let text = std::fs::read_to_string(saved_file(&saved_dir()?, key)).ok()?;
-    let (head, whole) = text.split_once('\n')?;
-    let head: Head = serde_json::from_str(head).ok()?;
-    if format!("{:?}", head.settings) != key {
-        return None;
-    }
-    serde_json::from_str(whole).ok()
+    read(&std::fs::read_to_string(saved_file(&saved_dir()?, key)).ok()?, key)
 }
 
 /// Save `voicing` (for settings `key`) in the cache folder, whole or not at

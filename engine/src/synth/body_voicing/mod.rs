@@ -457,8 +457,8 @@ fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale
 /// of 16), then closer where its ring asks for it.
 const REGULATION_TOUCHES: usize = 17;
 
-/// How many times the touches are halved (from steps of 16 down to steps of
-/// 1) where the ring between two of them strays by more than
+/// How many times the touches are halved (from velocity steps of 16 down to
+/// steps of one) where the ring between two of them strays by more than
 /// [`REGULATION_CLOSER_DB`] from the key's own rise (its median, in
 /// proportion to the touches' spacing): a hard strike's spectrum swinging
 /// through a partial, not the crescendo's steady climb.

@@ -80,26 +80,35 @@ pub(super) fn run_block(
     mut modes: Modes,
     pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
+    heard: bool,
     acc_l: &mut [Lanes],
     acc_r: &mut [Lanes],
 ) {
-    // One kernel per number of zones pushed on, so that its loop is unrolled.
-    match active.len() {
-        0 => run_groups::<0>(&mut modes, pushes, active, acc_l, acc_r),
-        1 => run_groups::<1>(&mut modes, pushes, active, acc_l, acc_r),
-        2 => run_groups::<2>(&mut modes, pushes, active, acc_l, acc_r),
-        3 => run_groups::<3>(&mut modes, pushes, active, acc_l, acc_r),
-        4 => run_groups::<4>(&mut modes, pushes, active, acc_l, acc_r),
-        5 => run_groups::<5>(&mut modes, pushes, active, acc_l, acc_r),
-        6 => run_groups::<6>(&mut modes, pushes, active, acc_l, acc_r),
-        7 => run_groups::<7>(&mut modes, pushes, active, acc_l, acc_r),
-        _ => run_groups::<MAX_ZONES>(&mut modes, pushes, active, acc_l, acc_r),
+    // One kernel per number of zones pushed on, so that its loop is unrolled
+    // (and one that only moves the modes, for a ring weighed from them).
+    match (active.len(), heard) {
+        (0, true) => run_groups::<0, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (1, true) => run_groups::<1, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (2, true) => run_groups::<2, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (3, true) => run_groups::<3, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (4, true) => run_groups::<4, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (5, true) => run_groups::<5, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (6, true) => run_groups::<6, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (7, true) => run_groups::<7, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (_, true) => run_groups::<MAX_ZONES, true>(&mut modes, pushes, active, acc_l, acc_r),
+        (0, false) => run_groups::<0, false>(&mut modes, pushes, active, acc_l, acc_r),
+        (1, false) => run_groups::<1, false>(&mut modes, pushes, active, acc_l, acc_r),
+        (2, false) => run_groups::<2, false>(&mut modes, pushes, active, acc_l, acc_r),
+        (3, false) => run_groups::<3, false>(&mut modes, pushes, active, acc_l, acc_r),
+        (_, false) => run_groups::<MAX_ZONES, false>(&mut modes, pushes, active, acc_l, acc_r),
     }
 }
 
-/// Every group, `BODY_CHAIN` at a time, with `Z` zones pushed on.
+/// Every group, `BODY_CHAIN` at a time, with `Z` zones pushed on, the
+/// microphones summed into `acc_l` and `acc_r` if `HEARD` (else only their
+/// length, the block's, is read).
 #[inline(always)]
-pub(super) fn run_groups<const Z: usize>(
+pub(super) fn run_groups<const Z: usize, const HEARD: bool>(
     modes: &mut Modes,
     pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
     active: &[usize],
@@ -109,18 +118,18 @@ pub(super) fn run_groups<const Z: usize>(
     let groups = modes.re.len();
     let mut g = 0;
     while g + BODY_CHAIN <= groups {
-        run_chain::<BODY_CHAIN, Z>(modes, g, pushes, active, acc_l, acc_r);
+        run_chain::<BODY_CHAIN, Z, HEARD>(modes, g, pushes, active, acc_l, acc_r);
         g += BODY_CHAIN;
     }
     while g < groups {
-        run_chain::<1, Z>(modes, g, pushes, active, acc_l, acc_r);
+        run_chain::<1, Z, HEARD>(modes, g, pushes, active, acc_l, acc_r);
         g += 1;
     }
 }
 
 /// `G` groups from `first` over a block with `Z` zones pushed on, state in registers.
 #[inline(always)]
-pub(super) fn run_chain<const G: usize, const Z: usize>(
+pub(super) fn run_chain<const G: usize, const Z: usize, const HEARD: bool>(
     modes: &mut Modes,
     first: usize,
     pushes: &[[f32; CONTROL_BLOCK]; MAX_ZONES],
@@ -162,13 +171,17 @@ pub(super) fn run_chain<const G: usize, const Z: usize>(
                 let i = pr[l].mul_add(zi[c][l], hi[l].mul_add(s[l], pi[l] * zr[c][l]));
                 zr[c][l] = r;
                 zi[c][l] = i;
-                sum_l[l] = olr[l].mul_add(r, oli[l].mul_add(-i, sum_l[l]));
-                sum_r[l] = orr[l].mul_add(r, ori[l].mul_add(-i, sum_r[l]));
+                if HEARD {
+                    sum_l[l] = olr[l].mul_add(r, oli[l].mul_add(-i, sum_l[l]));
+                    sum_r[l] = orr[l].mul_add(r, ori[l].mul_add(-i, sum_r[l]));
+                }
             }
         }
-        for l in 0..LANES {
-            al[l] += sum_l[l];
-            ar[l] += sum_r[l];
+        if HEARD {
+            for l in 0..LANES {
+                al[l] += sum_l[l];
+                ar[l] += sum_r[l];
+            }
         }
     }
     modes.re[first..first + G].copy_from_slice(&zr);

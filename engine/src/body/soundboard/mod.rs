@@ -384,11 +384,33 @@ impl Soundboard {
             right[..n].fill(0.0);
             return;
         }
-        self.run_side(0, forces, &active[..count], n);
+        self.run_side(0, forces, &active[..count], n, true);
         let [acc_l, acc_r] = &*self.acc;
         heard(&acc_l[..n], &self.direct[0], forces, &active[..count], &mut left[..n]);
         heard(&acc_r[..n], &self.direct[1], forces, &active[..count], &mut right[..n]);
         self.finish(&mut left[..n], &mut right[..n], pushed);
+    }
+
+    /// [`Self::process`] for `n` samples without listening: the modes move
+    /// exactly as there, and nothing is heard (a ring weighed from where
+    /// they are left, [`Self::ring_power`], costs a little over half).
+    /// Real-time safe.
+    pub fn drive(&mut self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], n: usize) {
+        let n = n.min(CONTROL_BLOCK);
+        if self.split || self.fade_step != 0.0 {
+            // (Split, the right microphone's modes run too; fading, the fade
+            // goes sample by sample.)
+            let (mut left, mut right) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+            self.process(forces, &mut left[..n], &mut right[..n]);
+            return;
+        }
+        let (active, count) = self.active_zones(forces, n);
+        let pushed = count > 0;
+        if !pushed && self.resting {
+            return;
+        }
+        self.run_side(0, forces, &active[..count], n, false);
+        self.finish(&mut [], &mut [], pushed);
     }
 
     /// [`Self::process`] with each microphone hearing the zones' forces as it
@@ -417,8 +439,8 @@ impl Soundboard {
             self.right_im.copy_from_slice(&self.im);
             self.split = true;
         }
-        self.run_side(0, left_forces, &active_l[..count_l], n);
-        self.run_side(1, right_forces, &active_r[..count_r], n);
+        self.run_side(0, left_forces, &active_l[..count_l], n, true);
+        self.run_side(1, right_forces, &active_r[..count_r], n, true);
         heard(&self.acc[0][..n], &self.direct[0], left_forces, &active_l[..count_l], &mut left[..n]);
         heard(&self.spare[1][..n], &self.direct[1], right_forces, &active_r[..count_r], &mut right[..n]);
         self.finish(&mut left[..n], &mut right[..n], pushed);
@@ -440,7 +462,16 @@ impl Soundboard {
     /// Run `n` samples of the `active` zones' forces through the modes as
     /// the left microphone hears them (`side` 0: into `acc`) or the right (1:
     /// the split modes, into `spare`).
-    fn run_side(&mut self, side: usize, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], active: &[usize], n: usize) {
+    /// Unless `heard`, the modes only move (the microphones' sums are left
+    /// as they were).
+    fn run_side(
+        &mut self,
+        side: usize,
+        forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES],
+        active: &[usize],
+        n: usize,
+        heard: bool,
+    ) {
         // The active zones' forces side by side, in single precision, for the kernel.
         let mut pushes = [[0.0f32; CONTROL_BLOCK]; MAX_ZONES];
         for (push, &z) in pushes.iter_mut().zip(active) {
@@ -474,7 +505,7 @@ impl Soundboard {
                 shape: &shape[..h],
                 out: [&lr[..h], &li[..h], &rr[..h], &ri[..h]],
             };
-            run_block(modes, pushes, active, &mut acc_l[..n], &mut acc_r[..n]);
+            run_block(modes, pushes, active, heard, &mut acc_l[..n], &mut acc_r[..n]);
         }
         {
             half_l[..n].fill([0.0; LANES]);
@@ -489,10 +520,12 @@ impl Soundboard {
                 shape: &shape[h..],
                 out: [&lr[h..], &li[h..], &rr[h..], &ri[h..]],
             };
-            run_block(modes, pushes, active, &mut half_l[..n], &mut half_r[..n]);
+            run_block(modes, pushes, active, heard, &mut half_l[..n], &mut half_r[..n]);
         }
-        add_halves(&mut acc_l[..n], &half_l[..n]);
-        add_halves(&mut acc_r[..n], &half_r[..n]);
+        if heard {
+            add_halves(&mut acc_l[..n], &half_l[..n]);
+            add_halves(&mut acc_r[..n], &half_r[..n]);
+        }
     }
 
     /// After a stretch: the fade of an "all sound off", and rest once nothing
@@ -751,6 +784,46 @@ mod tests {
             let off_db = 10.0 * (off / power(&mut want.iter().copied())).log10();
             println!("{}: {off_db:.1} dB off the double-precision modes", instrument.name());
             assert!(off_db < -90.0, "{}: {off_db:.1} dB", instrument.name());
+        }
+    }
+
+    /// Driven without listening, the modes move to the same bits as when
+    /// heard (a ring weighed from them is the same), over pushes on one
+    /// zone, two and every zone, and over the rest that follows.
+    #[test]
+    fn driven_unheard_the_modes_move_as_when_heard() {
+        let fs = 48_000.0;
+        for instrument in InstrumentKind::ALL {
+            let board = design(instrument);
+            let mics = MicPlacement::default().positions(&board);
+            let zones = board.zone_points();
+            let mut heard = Soundboard::build(&board, fs, &zones, mics, 1.0);
+            let mut unheard = heard.clone();
+            let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+            for b in 0..40 {
+                let mut forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
+                let pushed = match b % 4 {
+                    0 => 1,
+                    1 => 2,
+                    2 => zones.len().min(MAX_ZONES),
+                    _ => 0,
+                };
+                for zone in forces.iter_mut().take(pushed) {
+                    for f in zone.iter_mut() {
+                        x ^= x << 13;
+                        x ^= x >> 7;
+                        x ^= x << 17;
+                        *f = (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                    }
+                }
+                let n = if b == 39 { 17 } else { CONTROL_BLOCK };
+                let (mut l, mut r) = ([0.0; CONTROL_BLOCK], [0.0; CONTROL_BLOCK]);
+                heard.process(&forces, &mut l[..n], &mut r[..n]);
+                unheard.drive(&forces, n);
+                assert!(heard.re == unheard.re && heard.im == unheard.im, "{} block {b}", instrument.name());
+                assert_eq!(heard.is_resting(), unheard.is_resting());
+            }
+            assert_eq!(heard.ring_power(0.03, 0.28).to_bits(), unheard.ring_power(0.03, 0.28).to_bits());
         }
     }
 

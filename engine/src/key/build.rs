@@ -198,6 +198,12 @@ impl Key {
         self.press(0, touch, &PerformanceState::default());
         for (b, chunk) in force.chunks_mut(CONTROL_BLOCK).enumerate() {
             chunk.fill(0.0);
+            if b > 0 {
+                // At each control tick, as the synth does: a string whose hammer
+                // flies clear turns freely from there (the same to rounding).
+                self.settle();
+                self.strings.iter_mut().for_each(StruckString::watch_hammer);
+            }
             self.render(chunk, None);
             if chunk.len() == CONTROL_BLOCK && (b + 1) % TRADE_BLOCKS == 0 {
                 self.trade_through_bridge(0.0);

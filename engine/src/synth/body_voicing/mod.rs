@@ -3,6 +3,8 @@
 //! key must then bear on the body to ring where the instrument's level scale
 //! puts it. Off the audio thread, when an instrument is built.
 
+use std::cell::RefCell;
+use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
@@ -69,7 +71,9 @@ const PROBE_PARTIALS: usize = 40;
 /// and how loud the same ring is as the bridge force has it: the mean power
 /// over the ring's window, (full scale)^2 at the key's bridge-force gain, the
 /// body heard `gain` times louder; `force` is left holding the strike's first
-/// [`PROBE_S`] as the bridge gets it.
+/// [`PROBE_S`] as the bridge gets it. The bridge force's ring and the
+/// strike's peak through the body are weighed only as `asked` (a regulation
+/// compares what the microphones hear alone).
 ///
 /// What the strings ring with is followed partial by partial, each decaying
 /// at its own rate and heard through the body at its own frequency; partials
@@ -77,20 +81,24 @@ const PROBE_PARTIALS: usize = 40;
 /// first) add as waves, with their beating over the window. Then the board
 /// rings on from the strike's push (what a soft treble strike rings with
 /// most), its modes taken from where the probe leaves them.
-fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64]) -> (f64, f64) {
+fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64], asked: Asked) -> Weighed {
     if key.stays_on_strings() {
         return ring_played_through_body(key, touch, body, gain, force);
     }
-    let Body { heard_modes, shapes, share, soundboard, partners } = body;
+    let Body { heard, shapes, share, soundboard, partners } = body;
     let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
     let strings = key.probe(touch, force);
-    let (free_mics, bridge) = free_ring(strings.iter().flatten().copied().collect(), heard_modes, shapes, gain);
+    // (What the microphones hear of the free partials alone is their whole
+    // ring only for a single string with no partners.)
+    let alone_heard = key.unison().is_empty() && partners.is_empty();
+    let weigh = Weigh { mics: alone_heard, bridge: asked.bridge };
+    let (free_mics, bridge) = free_ring(strings.iter().flatten().copied().collect(), heard, shapes, gain, weigh);
     // A unison whose strings trade through the body rings less in the window
     // (its prompt sound is N times as fast): what it is voiced against stays
     // the ring its strings would have on their own, so that the level scale
     // holds however strongly the body couples them. What the key sets ringing
     // in the strings that ring free beside it is heard with it.
-    let ring = Ring { heard_modes, shapes, partners, step_s: soundboard.step_s(), gain };
+    let ring = Ring { heard, shapes, partners, step_s: soundboard.step_s(), gain };
     let mut mics = if !key.unison().is_empty() {
         ring.traded(&strings, key.unison(), &|_| true)
     } else if partners.is_empty() {
@@ -99,22 +107,62 @@ fn ring_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: 
         let trades = |i: usize| partners.iter().any(|p| p.partial == i);
         let alone: Vec<(Complex64, Complex64)> =
             strings.iter().flat_map(|s| s.iter().enumerate().filter(|&(i, _)| !trades(i)).map(|(_, &p)| p)).collect();
-        free_ring(alone, heard_modes, shapes, gain).0 + ring.traded(&strings, &[], &trades)
+        let weigh = Weigh { mics: true, bridge: false };
+        free_ring(alone, heard, shapes, gain, weigh).0 + ring.traded(&strings, &[], &trades)
     };
-    run_board(soundboard, share, force, gain / soundboard.gain());
+    let scale = gain / soundboard.gain();
+    let peak = if asked.peak {
+        Some(run_board(soundboard, share, force, scale))
+    } else {
+        play_board(soundboard, share, force, scale, None);
+        None
+    };
     mics += soundboard.ring_power(from, to);
     soundboard.silence();
-    (mics.max(0.0), bridge.max(0.0))
+    Weighed { mics: mics.max(0.0), bridge: bridge.max(0.0), peak_per_scale: peak.map(|p| p / scale) }
+}
+
+/// What [`ring_through_body`] weighs besides the ring through the
+/// microphones: the ring in the bridge force, the strike's peak through the
+/// body.
+#[derive(Clone, Copy)]
+struct Asked {
+    bridge: bool,
+    peak: bool,
+}
+
+/// What [`ring_through_body`] weighed of a strike: the ring's mean power
+/// through the microphones and in the bridge force (0 unless asked), and
+/// the strike's largest sample over the probe through the body, in either
+/// microphone, per unit of the key's force on it ([`run_board`]'s scale;
+/// None unless asked).
+#[derive(Clone, Copy, Debug)]
+struct Weighed {
+    mics: f64,
+    bridge: f64,
+    peak_per_scale: Option<f64>,
+}
+
+/// Which of a ring's powers [`free_ring`] weighs (one not weighed is 0).
+#[derive(Clone, Copy)]
+struct Weigh {
+    mics: bool,
+    bridge: bool,
 }
 
 /// The ring's mean power (microphones, bridge force) of free `partials`
-/// (each string's modes on their own): see [`ring_through_body`].
+/// (each string's modes on their own), those `weigh` asks for: see
+/// [`ring_through_body`].
 fn free_ring(
     mut partials: Vec<(Complex64, Complex64)>,
-    heard_modes: &HeardModes,
+    heard: &Heard,
     shapes: &[f64],
     gain: f64,
+    weigh: Weigh,
 ) -> (f64, f64) {
+    if !weigh.mics && !weigh.bridge {
+        return (0.0, 0.0);
+    }
     let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
     partials.retain(|(_, lambda)| lambda.im > 0.0);
     // The strongest PROBE_PARTIALS by their own ring in the bridge force: a
@@ -125,10 +173,14 @@ fn free_ring(
         .into_iter()
         .map(|i| partials[i])
         .collect::<Vec<_>>();
-    let heard: Vec<[Complex64; 2]> = partials
-        .iter()
-        .map(|(z, lambda)| heard_modes.transfer_shaped_pa_per_n(shapes, lambda.im / (2.0 * PI)).map(|t| z * t * gain))
-        .collect();
+    let heard: Vec<[Complex64; 2]> = if weigh.mics {
+        partials
+            .iter()
+            .map(|(z, lambda)| heard.transfer(shapes, lambda.im / (2.0 * PI)).map(|t| z * t * gain))
+            .collect()
+    } else {
+        Vec::new()
+    };
     let (mut bridge, mut mics) = (0.0, 0.0);
     for (j, (zj, lj)) in partials.iter().enumerate() {
         for (k, (zk, lk)) in partials.iter().enumerate() {
@@ -137,12 +189,14 @@ fn free_ring(
             }
             let over = window_integral(lj + lk.conj(), from, to);
             bridge += 0.5 * (zj * zk.conj() * over).re;
-            for (hj, hk) in heard[j].iter().zip(&heard[k]) {
-                mics += 0.25 * (hj * hk.conj() * over).re;
+            if let (Some(hj), Some(hk)) = (heard.get(j), heard.get(k)) {
+                for (hj, hk) in hj.iter().zip(hk) {
+                    mics += 0.25 * (hj * hk.conj() * over).re;
+                }
             }
         }
     }
-    (mics, bridge)
+    (if weigh.mics { mics } else { 0.0 }, if weigh.bridge { bridge } else { 0.0 })
 }
 
 /// A partial of another key that rings free when this key is struck alone (it
@@ -203,7 +257,7 @@ pub(super) fn partners<'a>(
 /// modes and their shapes where the key bears, the free strings it sets
 /// ringing, a control block's length (s) and the gain the key is heard at.
 struct Ring<'a> {
-    heard_modes: &'a HeardModes,
+    heard: &'a Heard<'a>,
     shapes: &'a [f64],
     partners: &'a [Partner<'a>],
     step_s: f64,
@@ -229,7 +283,7 @@ impl Ring<'_> {
         unison: &[(Complex64, Complex64)],
         chosen: &dyn Fn(usize) -> bool,
     ) -> f64 {
-        let Ring { heard_modes, shapes, partners, step_s, gain } = *self;
+        let Ring { heard: heard_through, shapes, partners, step_s, gain } = *self;
         let (from, to) = (RING_FROM_S - PROBE_S, RING_TO_S - PROBE_S);
         let h = (TRADE_BLOCKS * CONTROL_BLOCK) as f64 * step_s;
         let mut partials = strings.iter().map(Vec::len).min().unwrap_or(0);
@@ -256,9 +310,9 @@ impl Ring<'_> {
             let dt = h / steps as f64;
             let turn: Vec<Complex64> = strings.iter().map(|s| (s[i].1 * dt).exp()).collect();
             let mut zeta: Vec<Complex64> = strings.iter().map(|s| s[i].0).collect();
-            let [l, r] = heard_modes.transfer_shaped_pa_per_n(shapes, strings[0][i].1.im / (2.0 * PI));
+            let [l, r] = heard_through.transfer(shapes, strings[0][i].1.im / (2.0 * PI));
             let heard: Vec<[Complex64; 2]> =
-                own.iter().map(|p| heard_modes.transfer_shaped_pa_per_n(p.shapes, p.lambda.im / (2.0 * PI))).collect();
+                own.iter().map(|p| heard_through.transfer(p.shapes, p.lambda.im / (2.0 * PI))).collect();
             let their_turn: Vec<Complex64> = own.iter().map(|p| (p.lambda * dt).exp()).collect();
             let mut theirs: Vec<Complex64> = own.iter().map(|p| p.since_strike(strings, i, dt, h)).collect();
             // A partner rings (and gives back) once what it was given would
@@ -338,7 +392,7 @@ impl Partner<'_> {
 /// tangent, which shortens them to their speaking length): the strike is
 /// played through the whole ring's window and through the running body, and
 /// the ring measured on what comes out.
-fn ring_played_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64]) -> (f64, f64) {
+fn ring_played_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, force: &mut [f64]) -> Weighed {
     let Body { share, soundboard, .. } = body;
     let fs = 1.0 / soundboard.step_s();
     let mut played = vec![0.0; (RING_TO_S * fs) as usize];
@@ -351,15 +405,20 @@ fn ring_played_through_body(key: &mut Key, touch: Touch, body: Body, gain: f64, 
     // out (and the body does not radiate): the ring is what moves about it.
     let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
     let bridge = window.iter().map(|f| (f - mean) * (f - mean)).sum::<f64>() / window.len().max(1) as f64;
-    let (mut heard, mut counted) = (0.0, 0usize);
-    play_board(soundboard, share, &played, gain / soundboard.gain(), |t, l, r| {
+    let (mut heard, mut counted, mut peak) = (0.0, 0usize, 0.0f64);
+    let scale = gain / soundboard.gain();
+    let mut listen = |t: usize, l: f64, r: f64| {
+        if t < n {
+            peak = peak.max(l.abs()).max(r.abs());
+        }
         if t >= from {
             heard += 0.5 * (l * l + r * r);
             counted += 1;
         }
-    });
+    };
+    play_board(soundboard, share, &played, scale, Some(&mut listen));
     soundboard.silence();
-    (heard / counted.max(1) as f64, bridge)
+    Weighed { mics: heard / counted.max(1) as f64, bridge, peak_per_scale: Some(peak / scale) }
 }
 
 /// Partials closer than this fraction of their frequency (5 cents: the same
@@ -393,7 +452,7 @@ fn window_mean(rate: f64, from: f64, to: f64) -> f64 {
 /// What the body is to one key: the modes it is heard through, the points it
 /// bears on and its share of them, and the running body.
 struct Body<'a, 'b> {
-    heard_modes: &'a HeardModes,
+    heard: &'a Heard<'a>,
     /// The body's modes' shapes where the key bears ([`HeardModes::shapes`]).
     shapes: &'a [f64],
     share: ZoneShare,
@@ -405,7 +464,7 @@ struct Body<'a, 'b> {
 impl Body<'_, '_> {
     fn reborrow(&mut self) -> Body<'_, '_> {
         Body {
-            heard_modes: self.heard_modes,
+            heard: self.heard,
             shapes: self.shapes,
             share: self.share,
             soundboard: self.soundboard,
@@ -414,15 +473,41 @@ impl Body<'_, '_> {
     }
 }
 
+/// The body's modes as one key's voicing hears through them: the
+/// microphones' transfer at a partial's frequency where a key bears (its
+/// own, or a free partner's) is worked out once for all the key's strikes
+/// (its strings' partials sound at the same frequencies each time).
+struct Heard<'a> {
+    modes: &'a HeardModes,
+    /// By where the shapes lie and how many (the key's own, or a
+    /// partner's), and the frequency's bits.
+    found: RefCell<HashMap<(usize, usize, u64), [Complex64; 2]>>,
+}
+
+impl<'a> Heard<'a> {
+    fn new(modes: &'a HeardModes) -> Self {
+        Self { modes, found: RefCell::new(HashMap::new()) }
+    }
+
+    /// [`HeardModes::transfer_shaped_pa_per_n`], remembered.
+    fn transfer(&self, shapes: &[f64], f_hz: f64) -> [Complex64; 2] {
+        *self
+            .found
+            .borrow_mut()
+            .entry((shapes.as_ptr() as usize, shapes.len(), f_hz.to_bits()))
+            .or_insert_with(|| self.modes.transfer_shaped_pa_per_n(shapes, f_hz))
+    }
+}
+
 /// Run the board from rest under `force` spread over `share`'s zones times
 /// `scale`, handing `heard` each sample's index and what the two microphones
-/// hear then.
+/// hear then; with no one to hear, the modes only move (as they would).
 fn play_board(
     soundboard: &mut Soundboard,
     share: ZoneShare,
     force: &[f64],
     scale: f64,
-    mut heard: impl FnMut(usize, f64, f64),
+    mut heard: Option<&mut dyn FnMut(usize, f64, f64)>,
 ) {
     soundboard.silence();
     let mut zone_forces = [[0.0; CONTROL_BLOCK]; MAX_ZONES];
@@ -437,6 +522,10 @@ fn play_board(
             }
         }
         let n = chunk.len();
+        let Some(heard) = heard.as_mut() else {
+            soundboard.drive(&zone_forces, n);
+            continue;
+        };
         soundboard.process(&zone_forces, &mut left[..n], &mut right[..n]);
         for t in 0..n {
             heard(c * CONTROL_BLOCK + t, left[t], right[t]);
@@ -447,7 +536,7 @@ fn play_board(
 /// [`play_board`]'s largest sample in either microphone.
 fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale: f64) -> f64 {
     let mut peak = 0.0f64;
-    play_board(soundboard, share, force, scale, |_, l, r| peak = peak.max(l.abs()).max(r.abs()));
+    play_board(soundboard, share, force, scale, Some(&mut |_, l: f64, r: f64| peak = peak.max(l.abs()).max(r.abs())));
     peak
 }
 
@@ -456,6 +545,8 @@ fn run_board(soundboard: &mut Soundboard, share: ZoneShare, force: &[f64], scale
 /// [`REGULATION_RISE_DB`]. A key is struck first at every other one (steps
 /// of 16), then closer where its ring asks for it.
 const REGULATION_TOUCHES: usize = 17;
+// (The touches struck first, every other one, end at the hardest.)
+const _: () = assert!(REGULATION_TOUCHES % 2 == 1);
 
 /// How many times the touches are halved (from velocity steps of 16 down to
 /// steps of one) where the ring between two of them strays by more than
@@ -531,24 +622,33 @@ fn voice_through_body(
     let fs = 1.0 / soundboard.step_s();
     let mut force = vec![0.0; (PROBE_S * fs) as usize];
     let gain = soundboard.gain();
-    let mut body = Body { heard_modes, shapes, share: board.zone_share(midi_key), soundboard, partners };
+    let heard = Heard::new(heard_modes);
+    let mut body = Body { heard: &heard, shapes, share: board.zone_share(midi_key), soundboard, partners };
     let loudest = range.max();
     let mut top_gain = 1.0;
     let mut rings = Vec::new();
+    let mut loudest_peak = None;
     if regulate && !key.stays_on_strings() {
-        let Regulation { table, rings: weighed } = regulation(key, range, ringing, &mut body, &mut force);
+        let Regulation { table, rings: weighed, loudest_peak_per_scale } =
+            regulation(key, range, ringing, &mut body, &mut force);
         top_gain = regulated(&table, loudest.value());
         key.regulate(table);
         rings = weighed;
+        loudest_peak = Some(loudest_peak_per_scale);
     }
-    let (heard, bridge) = ring_through_body(key, ringing, body.reborrow(), gain, &mut force);
+    let Weighed { mics: heard, bridge, .. } =
+        ring_through_body(key, ringing, body.reborrow(), gain, &mut force, Asked { bridge: true, peak: false });
     let voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };
     let voicing = voicing.clamp(VOICING_RANGE.0, VOICING_RANGE.1);
-    // The loudest strike's first milliseconds through the body, at that voicing.
-    key.probe(loudest, &mut force);
-    let peak = run_board(body.soundboard, body.share, &force, voicing * top_gain);
-    body.soundboard.silence();
-    Voiced { level: voicing, peak, rings }
+    // The loudest strike's first milliseconds through the body, at that
+    // voicing: as the regulation struck it (the body is linear), or struck here.
+    let peak_per_scale = loudest_peak.unwrap_or_else(|| {
+        key.probe(loudest, &mut force);
+        let peak = run_board(body.soundboard, body.share, &force, 1.0);
+        body.soundboard.silence();
+        peak
+    });
+    Voiced { level: voicing, peak: peak_per_scale * voicing * top_gain, rings }
 }
 
 /// A key voiced through the body: how much louder than its bridge-force gain

@@ -2,8 +2,8 @@
 //! keeps rising) and the evening of neighbours that ring apart.
 
 use super::{
-    Body, Key, REGULATION_CLOSER_DB, REGULATION_REFINEMENTS, REGULATION_RISE_DB, REGULATION_TOUCHES, Touch, TouchRange,
-    Voiced, regulated, ring_through_body,
+    Asked, Body, Key, REGULATION_CLOSER_DB, REGULATION_REFINEMENTS, REGULATION_RISE_DB, REGULATION_TOUCHES, Touch,
+    TouchRange, Voiced, regulated, ring_through_body,
 };
 
 /// A key's regulation: how much each touch (by its value, as
@@ -23,10 +23,25 @@ pub(super) fn regulation(
 ) -> Regulation {
     let lo = range.bounds().0;
     let step = regulation_step(range);
-    let mut ring_at = |t: f64| ring_through_body(key, range.with(t), body.reborrow(), 1.0, force).0;
-    // Every other regulated touch first.
-    let mut points: Vec<(f64, f64)> =
-        (0..REGULATION_TOUCHES).step_by(2).map(|i| lo * step.powi(i as i32)).map(|t| (t, ring_at(t))).collect();
+    let mut weigh = |t: f64, peak: bool| {
+        ring_through_body(key, range.with(t), body.reborrow(), 1.0, force, Asked { bridge: false, peak })
+    };
+    // Every other regulated touch first, the hardest among them (whose
+    // strike's peak through the body the voicing needs as well).
+    let mut loudest_peak_per_scale = 0.0;
+    let mut points: Vec<(f64, f64)> = (0..REGULATION_TOUCHES)
+        .step_by(2)
+        .map(|i| {
+            let t = lo * step.powi(i as i32);
+            let hardest = i == REGULATION_TOUCHES - 1;
+            let weighed = weigh(t, hardest);
+            if let Some(peak) = weighed.peak_per_scale.filter(|_| hardest) {
+                loudest_peak_per_scale = peak;
+            }
+            (t, weighed.mics)
+        })
+        .collect();
+    let mut ring_at = |t: f64| weigh(t, false).mics;
     // Where the ring strays from the key's own rise between two touches (a
     // hard strike's spectrum swinging through a partial), look closer: the
     // rise expected is the key's median (over two regulation steps, halved
@@ -69,7 +84,7 @@ pub(super) fn regulation(
         table.iter_mut().for_each(|(_, g)| *g /= at_ringing);
     }
     table.iter_mut().for_each(|(_, g)| *g = g.clamp(1.0 / MOST_REGULATED, MOST_REGULATED));
-    Regulation { table, rings: points }
+    Regulation { table, rings: points, loudest_peak_per_scale }
 }
 
 /// The ratio of one regulated touch to the next over `range`.
@@ -84,11 +99,13 @@ pub(super) fn rise_margin_db(softer: f64, harder: f64, step: f64) -> f64 {
     REGULATION_RISE_DB * (harder / softer).ln() / step.ln()
 }
 
-/// A key's regulation ([`regulation`]): its gain by touch, and the ring
-/// power through the body it was weighed with at those touches.
+/// A key's regulation ([`regulation`]): its gain by touch, the ring power
+/// through the body it was weighed with at those touches, and its hardest
+/// touch's peak through the body ([`Weighed::peak_per_scale`]).
 pub(super) struct Regulation {
     pub(super) table: Vec<(f64, f64)>,
     pub(super) rings: Vec<(f64, f64)>,
+    pub(super) loudest_peak_per_scale: f64,
 }
 
 /// How far a key may ring over (or under) the mean of its two neighbours at

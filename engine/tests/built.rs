@@ -76,3 +76,25 @@ fn a_kept_instrument_plays_as_one_built_afresh_and_only_for_its_own_settings() {
     built::forget();
     assert_eq!(built::kept_count(), 0);
 }
+
+/// Voiced, every key is left as a strike at its level touch leaves it, its
+/// regulation's gain there 1: a key the others wake before it is first
+/// struck (an undamped treble key) rings at that gain, not at whatever
+/// touch the voicing happened to strike last.
+#[test]
+fn a_voiced_key_is_left_at_its_level_touchs_gain() {
+    for kind in [InstrumentKind::Piano, InstrumentKind::Fortepiano, InstrumentKind::Harpsichord] {
+        let voicing = build(&default_settings(kind, 48_000.0)).voicing();
+        for key in &voicing.keys {
+            let near = |g: f64| (g - 1.0).abs() <= 1e-12;
+            assert!(
+                near(key.gain) && near(key.gain_to),
+                "{} key {}: {} -> {}",
+                kind.name(),
+                key.midi_key,
+                key.gain,
+                key.gain_to
+            );
+        }
+    }
+}

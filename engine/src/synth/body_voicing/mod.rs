@@ -636,6 +636,8 @@ fn voice_through_body(
         rings = weighed;
         loudest_peak = Some(loudest_peak_per_scale);
     }
+    // (The last strike: the key is left as it leaves it, its regulation's
+    // gain 1, which a key the others wake before it is struck rings at.)
     let Weighed { mics: heard, bridge, .. } =
         ring_through_body(key, ringing, body.reborrow(), gain, &mut force, Asked { bridge: true, peak: false });
     let voicing = if heard > 0.0 && bridge > 0.0 { key.body_boost() * (bridge / heard).sqrt() } else { 1.0 };

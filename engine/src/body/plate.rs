@@ -302,15 +302,16 @@ pub fn residual_mobility(plate: &Plate, from_hz: f64, f_hz: f64) -> (f64, f64) {
     let step = (plate.loss_factor / 8.0).min(0.005);
     let steps = ((top_hz / from_hz).ln() / step).ceil().max(1.0) as usize;
     let dl = (top_hz / from_hz).ln() / steps as f64;
+    let skeleton = Skeleton::new(plate);
     let (mut re, mut im) = (0.0, 0.0);
     for j in 0..steps {
         let fk = from_hz * ((j as f64 + 0.5) * dl).exp();
-        let weight = 4.0 * skeleton_mobility(plate, fk) * fk * dl; // per-Hz weight times df
+        let weight = 4.0 * skeleton.at(fk) * fk * dl; // per-Hz weight times df
         let (r, i) = modal_term(weight, 2.0 * PI * fk, plate.loss_factor, w);
         re += r;
         im += i;
     }
-    let tail = 4.0 * skeleton_mobility(plate, top_hz) * w / (4.0 * PI * PI * top_hz);
+    let tail = 4.0 * skeleton.at(top_hz) * w / (4.0 * PI * PI * top_hz);
     (re, im + tail)
 }
 
@@ -335,10 +336,29 @@ pub fn inter_rib_mobility(plate: &Plate) -> f64 {
 /// octave above). The shape of this transition is our assumption; its direction
 /// (mobility rising above ~1 kHz) and its cause are Ege & Boutillon's.
 pub fn skeleton_mobility(plate: &Plate, f_hz: f64) -> f64 {
-    let low = mean_mobility(plate);
-    match plate.inter_rib_hz() {
-        Some(fr) if f_hz > fr => low + (inter_rib_mobility(plate) - low) * (1.0 - (fr / f_hz).powi(2)),
-        _ => low,
+    Skeleton::new(plate).at(f_hz)
+}
+
+/// [`skeleton_mobility`] of one plate, its levels and the inter-rib
+/// frequency worked out once (the continuum's integral asks at thousands
+/// of frequencies).
+struct Skeleton {
+    low: f64,
+    /// The inter-rib frequency and the bare panel's level (none without ribs).
+    ribs: Option<(f64, f64)>,
+}
+
+impl Skeleton {
+    fn new(plate: &Plate) -> Self {
+        Self { low: mean_mobility(plate), ribs: plate.inter_rib_hz().map(|fr| (fr, inter_rib_mobility(plate))) }
+    }
+
+    fn at(&self, f_hz: f64) -> f64 {
+        let low = self.low;
+        match self.ribs {
+            Some((fr, panel)) if f_hz > fr => low + (panel - low) * (1.0 - (fr / f_hz).powi(2)),
+            _ => low,
+        }
     }
 }
 
@@ -373,20 +393,38 @@ fn complex_stiffness(plate: &Plate) -> Complex64 {
 /// real part, the power taken), an imaginary one only a near field. For k = 0
 /// it is the line-driven plate's (1 - i) w / (4 D kp^3).
 pub fn line_mobility(plate: &Plate, k: Complex64, f_hz: f64) -> Complex64 {
-    let w = 2.0 * PI * f_hz;
-    let kp = plate_wavenumber(plate, f_hz);
-    // A trace faster than the board's own wave sheds it outward (Re a > 0: a
-    // leaky wave, whose field grows away from the line as it was shed
-    // further back); a slower one is held as a near field (Im a < 0).
-    let mut a = (kp * kp - k * k).sqrt();
-    if (k.re < kp.re && a.re < 0.0) || (k.re >= kp.re && a.im > 0.0) {
-        a = -a;
+    LineMobility::new(plate, f_hz).at(k)
+}
+
+/// [`line_mobility`] at one frequency, what does not hang on the trace
+/// wavenumber worked out once (a root search asks for many).
+struct LineMobility {
+    kp: Complex64,
+    scale: Complex64,
+}
+
+impl LineMobility {
+    fn new(plate: &Plate, f_hz: f64) -> Self {
+        let w = 2.0 * PI * f_hz;
+        let kp = plate_wavenumber(plate, f_hz);
+        Self { kp, scale: w / (4.0 * complex_stiffness(plate) * kp * kp) }
     }
-    let mut b = (kp * kp + k * k).sqrt();
-    if b.re < 0.0 {
-        b = -b;
+
+    fn at(&self, k: Complex64) -> Complex64 {
+        let kp = self.kp;
+        // A trace faster than the board's own wave sheds it outward (Re a > 0: a
+        // leaky wave, whose field grows away from the line as it was shed
+        // further back); a slower one is held as a near field (Im a < 0).
+        let mut a = (kp * kp - k * k).sqrt();
+        if (k.re < kp.re && a.re < 0.0) || (k.re >= kp.re && a.im > 0.0) {
+            a = -a;
+        }
+        let mut b = (kp * kp + k * k).sqrt();
+        if b.re < 0.0 {
+            b = -b;
+        }
+        self.scale * (1.0 / a - Complex64::i() / b)
     }
-    w / (4.0 * complex_stiffness(plate) * kp * kp) * (1.0 / a - Complex64::i() / b)
 }
 
 /// A bending wave along a beam on the board ([`beam_wave`]).
@@ -431,7 +469,8 @@ pub fn beam_wave(plate: &Plate, ei: f64, rho_a: f64, f_hz: f64) -> Option<BeamWa
     let w = 2.0 * PI * f_hz;
     let ei = Complex64::new(ei, ei * plate.loss_factor);
     let bare = (Complex64::new(rho_a * w * w, 0.0) / ei).powf(0.25);
-    let balance = |k: Complex64| ei * k.powi(4) - rho_a * w * w + Complex64::i() * w / line_mobility(plate, k, f_hz);
+    let line = LineMobility::new(plate, f_hz);
+    let balance = |k: Complex64| ei * k.powi(4) - rho_a * w * w + Complex64::i() * w / line.at(k);
     let scale = rho_a * w * w;
     let solve = |start: Complex64| {
         let mut k = start;

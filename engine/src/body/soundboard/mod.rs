@@ -392,9 +392,8 @@ impl Soundboard {
     }
 
     /// [`Self::process`] for `n` samples without listening: the modes move
-    /// exactly as there, and nothing is heard (a ring weighed from where
-    /// they are left, [`Self::ring_power`], costs a little over half).
-    /// Real-time safe.
+    /// to the same bits as there, and nothing is heard (for a ring weighed
+    /// from where they are left, [`Self::ring_power`]). Real-time safe.
     pub fn drive(&mut self, forces: &[[f64; CONTROL_BLOCK]; MAX_ZONES], n: usize) {
         let n = n.min(CONTROL_BLOCK);
         if self.split || self.fade_step != 0.0 {

@@ -634,7 +634,7 @@ fn voice_through_body(
         top_gain = regulated(&table, loudest.value());
         key.regulate(table);
         rings = weighed;
-        loudest_peak = Some(loudest_peak_per_scale);
+        loudest_peak = loudest_peak_per_scale;
     }
     // (The last strike: the key is left as it leaves it, its regulation's
     // gain 1, which a key the others wake before it is struck rings at.)

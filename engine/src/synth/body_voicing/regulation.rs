@@ -28,16 +28,13 @@ pub(super) fn regulation(
     };
     // Every other regulated touch first, the hardest among them (whose
     // strike's peak through the body the voicing needs as well).
-    let mut loudest_peak_per_scale = 0.0;
+    let mut loudest_peak_per_scale = None;
     let mut points: Vec<(f64, f64)> = (0..REGULATION_TOUCHES)
         .step_by(2)
         .map(|i| {
             let t = lo * step.powi(i as i32);
-            let hardest = i == REGULATION_TOUCHES - 1;
-            let weighed = weigh(t, hardest);
-            if let Some(peak) = weighed.peak_per_scale.filter(|_| hardest) {
-                loudest_peak_per_scale = peak;
-            }
+            let weighed = weigh(t, i == REGULATION_TOUCHES - 1);
+            loudest_peak_per_scale = loudest_peak_per_scale.or(weighed.peak_per_scale);
             (t, weighed.mics)
         })
         .collect();
@@ -105,7 +102,7 @@ pub(super) fn rise_margin_db(softer: f64, harder: f64, step: f64) -> f64 {
 pub(super) struct Regulation {
     pub(super) table: Vec<(f64, f64)>,
     pub(super) rings: Vec<(f64, f64)>,
-    pub(super) loudest_peak_per_scale: f64,
+    pub(super) loudest_peak_per_scale: Option<f64>,
 }
 
 /// How far a key may ring over (or under) the mean of its two neighbours at

@@ -131,6 +131,7 @@ mod tests {
 
 pub mod action;
 pub mod body;
+mod cores;
 pub(crate) mod damper;
 pub mod design;
 pub mod exciter;

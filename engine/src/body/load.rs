@@ -80,9 +80,6 @@ struct Admittance {
 /// and the bridges' bending wave (none: the board has no continuous bridge).
 type TableEntry = ((f64, f64), Option<Option<plate::BeamWave>>);
 
-/// The most threads a board's admittance table is worked out on.
-const MAX_TABLE_THREADS: usize = 8;
-
 /// How many boards' [`Admittance`]s are kept (a few sizes of each body).
 const KEPT_BOARDS: usize = 8;
 
@@ -104,35 +101,14 @@ fn admittance(board: &BodyDesign) -> Admittance {
     let points = ((TABLE_TO_HZ / TABLE_FROM_HZ).ln() / TABLE_STEP).ceil() as usize + 1;
     let frequency = |i: usize| TABLE_FROM_HZ * (i as f64 * TABLE_STEP).exp();
     // Each frequency's entries on their own: the table is shared out over
-    // the cores, a stretch of frequencies each.
+    // the cores in stretches of frequencies.
     let beam = board.bridge_beam();
     let entry = |i: usize| {
         let residual = plate::residual_mobility(&board.plate, top, frequency(i));
         let wave = beam.map(|(ei, rho_a)| plate::beam_wave(&board.plate, ei, rho_a, frequency(i)));
         (residual, wave)
     };
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_TABLE_THREADS);
-    let stretch = points.div_ceil(cores);
-    let entries: Vec<TableEntry> = std::thread::scope(|scope| {
-        let workers: Vec<_> = (1..cores)
-            .map(|c| {
-                let entry = &entry;
-                let range = (c * stretch).min(points)..((c + 1) * stretch).min(points);
-                // A stretch no thread could be started for is worked out here.
-                std::thread::Builder::new()
-                    .spawn_scoped(scope, move || range.clone().map(entry).collect::<Vec<_>>())
-                    .map_err(|_| (c * stretch).min(points)..((c + 1) * stretch).min(points))
-            })
-            .collect();
-        let mut entries: Vec<_> = (0..stretch.min(points)).map(entry).collect();
-        for worker in workers {
-            match worker {
-                Ok(w) => entries.extend(w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))),
-                Err(range) => entries.extend(range.map(entry)),
-            }
-        }
-        entries
-    });
+    let entries: Vec<TableEntry> = crate::cores::in_stretches(points, &|i, out| out.push(entry(i)));
     let residual = entries.iter().map(|e| e.0).collect();
     let waves = if beam.is_some() { entries.iter().map(|e| e.1.flatten()).collect() } else { Vec::new() };
     let admittance = Admittance { modes, residual, waves };

@@ -285,7 +285,7 @@ impl Sympathy {
                 });
             }
         };
-        let mut pairs = in_stretches(by_pitch.len(), &pairs_above);
+        let mut pairs = crate::cores::in_stretches(by_pitch.len(), &pairs_above);
         let budget_used = hold_within_budget(&mut pairs, &entries, step_s);
         let mut by_key: Vec<Vec<u32>> = vec![Vec::new(); 128];
         for (n, p) in pairs.iter().enumerate() {
@@ -617,64 +617,12 @@ fn hold_within_budget(pairs: &mut [Pair], entries: &[Entry], step_s: f64) -> f64
     used
 }
 
-/// Partials worked on in one go when [`Sympathy::build`] shares them out.
-const STRETCH: usize = 64;
-
-/// The most threads [`Sympathy::build`] shares its pairs out over.
-const MAX_PAIR_THREADS: usize = 8;
-
-/// What `each` pushes for every index in `0..count`, in that order: the
-/// indices in stretches of [`STRETCH`], dealt out in turn over the cores (a
-/// stretch no thread could be started for is worked here).
-fn in_stretches<T: Send>(count: usize, each: &(dyn Fn(usize, &mut Vec<T>) + Sync)) -> Vec<T> {
-    let stretches = count.div_ceil(STRETCH);
-    let cores =
-        std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_PAIR_THREADS).min(stretches.max(1));
-    let work = |hand: usize| -> Vec<(usize, Vec<T>)> {
-        (hand..stretches)
-            .step_by(cores)
-            .map(|s| {
-                let mut found = Vec::new();
-                (s * STRETCH..((s + 1) * STRETCH).min(count)).for_each(|x| each(x, &mut found));
-                (s, found)
-            })
-            .collect()
-    };
-    let mut done: Vec<(usize, Vec<T>)> = std::thread::scope(|scope| {
-        let workers: Vec<_> = (1..cores)
-            .map(|hand| std::thread::Builder::new().spawn_scoped(scope, move || work(hand)).map_err(|_| hand))
-            .collect();
-        let mut done = work(0);
-        for worker in workers {
-            match worker {
-                Ok(w) => done.extend(w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))),
-                Err(hand) => done.extend(work(hand)),
-            }
-        }
-        done
-    });
-    done.sort_by_key(|(s, _)| *s);
-    done.into_iter().flat_map(|(_, found)| found).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use num_complex::Complex64;
 
     use crate::design::InstrumentKind;
     use crate::synth::{Event, Instrument, Synth, TimedEvent, default_settings};
-
-    /// Shared out over the cores, the pairs come in the order one loop
-    /// finds them, however many each index makes (none, one or several).
-    #[test]
-    fn stretches_join_in_order() {
-        for count in [0, 1, super::STRETCH - 1, super::STRETCH, 5 * super::STRETCH + 3] {
-            let each = |x: usize, out: &mut Vec<(usize, usize)>| out.extend((0..x % 3).map(|j| (x, j)));
-            let mut serial = Vec::new();
-            (0..count).for_each(|x| each(x, &mut serial));
-            assert_eq!(super::in_stretches(count, &each), serial, "{count}");
-        }
-    }
 
     #[test]
     fn each_pair_is_met_from_both_its_keys() {
